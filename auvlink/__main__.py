@@ -1,0 +1,7 @@
+"""``python -m auvlink`` runs the command line."""
+
+import sys
+
+from auvlink.cli import main
+
+sys.exit(main())

@@ -1,0 +1,74 @@
+"""The ``auvlink`` command line: one entry point, one module per subcommand (imported when used).
+
+Each subcommand module defines ``add_arguments(parser)`` and ``run(args) -> int``.
+Errors from the package print one line on stderr (``auvlink: error: ...``) and exit 1; never a
+traceback unless ``AUVLINK_DEBUG=1``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import os
+import sys
+from collections.abc import Sequence
+
+from auvlink import __version__
+from auvlink.errors import AuvlinkError
+
+#: subcommand -> (module, one-line help)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "decode": ("auvlink.cli.decode", "decode a wire-format file into records (summary or JSON lines)"),
+    "bench": ("auvlink.cli.bench", "run benchmarks (run time against error, peers in the same run)"),
+    "record": ("auvlink.cli.record", "record the ports of a config file into an MCAP mission log"),
+    "log": ("auvlink.cli.log", "inspect, export and import mission logs"),
+    "replay": ("auvlink.cli.replay", "replay a mission log through the live pipeline"),
+    "sim": ("auvlink.cli.sim", "simulate a mission into a log or live on virtual ports"),
+    "live": ("auvlink.cli.live", "run the onboard pipeline on the ports of a config file"),
+    "train": ("auvlink.cli.train", "train the PointNet classifier on synthesized clouds"),
+    "eval": ("auvlink.cli.evaluate", "evaluate a classifier checkpoint"),
+    "demo": ("auvlink.cli.demo", "simulate, replay, reconstruct, classify and write a report"),
+}
+
+
+def _available() -> dict[str, tuple[str, str]]:
+    out = {}
+    for name, (module, help_text) in COMMANDS.items():
+        if importlib.util.find_spec(module) is not None:
+            out[name] = (module, help_text)
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="auvlink",
+        description="AUV sensor drivers, mission logs, simulation, 3D sonar reconstruction, classification.",
+    )
+    parser.add_argument("--version", action="version", version=f"auvlink {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, (module_name, help_text) in _available().items():
+        module = importlib.import_module(module_name)
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        module.add_arguments(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        code: int = args._run(args)
+    except AuvlinkError as exc:
+        if os.environ.get("AUVLINK_DEBUG"):
+            raise
+        print(f"auvlink: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

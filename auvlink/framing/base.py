@@ -1,0 +1,74 @@
+"""The framer contract: ``feed(bytes) -> list[bytes]`` of whole frames, for any chunking.
+
+A framer keeps an internal buffer. Whatever cannot start a frame is dropped and counted;
+a frame whose checksum fails is counted and the search resumes one byte after its start,
+so a valid frame hidden inside garbage (or overlapping a damaged one) is never lost.
+``flush()`` is called at end of stream: a partial frame left in the buffer counts as truncated.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import asdict, dataclass
+
+
+@dataclass
+class FramerStats:
+    """Counters of one framer (mutable, owned by that framer instance)."""
+
+    frames: int = 0
+    bytes_in: int = 0
+    dropped_bytes: int = 0
+    bad_checksums: int = 0
+    truncated: int = 0
+
+    def as_dict(self) -> dict[str, int]:
+        return asdict(self)
+
+
+class Framer(ABC):
+    """Base class: owns the buffer and the counters; a format implements :meth:`_extract`."""
+
+    #: the format name this framer cuts (``"pd0"``, ``"dsp1760"``, ...)
+    format_name: str = ""
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self.stats = FramerStats()
+
+    def feed(self, data: bytes) -> list[bytes]:
+        """Add ``data`` and return every whole frame now complete, in stream order."""
+        self.stats.bytes_in += len(data)
+        self._buf += data
+        frames = self._extract(self._buf)
+        self.stats.frames += len(frames)
+        return frames
+
+    def flush(self) -> list[bytes]:
+        """End of stream: return what is still whole and count any partial frame as truncated."""
+        frames = self._extract(self._buf, final=True)
+        self.stats.frames += len(frames)
+        if self._buf:
+            self.stats.truncated += 1
+            self.stats.dropped_bytes += len(self._buf)
+            self._buf.clear()
+        return frames
+
+    def reset(self) -> None:
+        """Forget buffered bytes (e.g. after a port was reopened); counters are kept."""
+        self._buf.clear()
+
+    @property
+    def buffered(self) -> int:
+        """Bytes waiting for the rest of a frame."""
+        return len(self._buf)
+
+    def _drop(self, buf: bytearray, n: int) -> None:
+        """Discard ``n`` bytes from the front of ``buf`` and count them."""
+        if n > 0:
+            del buf[:n]
+            self.stats.dropped_bytes += n
+
+    @abstractmethod
+    def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
+        """Remove whole frames (and garbage) from the front of ``buf``; leave a partial frame."""

@@ -1,0 +1,1 @@
+"""logs_format package."""
