@@ -1,0 +1,57 @@
+"""``auvlink decode FILE --format FMT [--jsonl]``: any supported wire or file format -> records.
+
+A damaged file decodes every good frame and reports the bad ones on stderr. The exit code is
+non-zero only when nothing could be decoded, with a one-line reason.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from auvlink import formats
+from auvlink.decode_file import decode_path
+from auvlink.errors import AuvlinkError
+from auvlink.jsonutil import dumps
+
+FILE_FORMATS = ("pd0", "pd6", "dsp1760", "dsp3000", "keller", "paro", "aris", "didson", "can")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", type=Path, help="the file to decode (a raw capture of the wire format)")
+    p.add_argument("--format", "-f", required=True, choices=FILE_FORMATS, help="wire format of FILE")
+    p.add_argument("--jsonl", action="store_true", help="one JSON object per record on stdout")
+    p.add_argument("--json", action="store_true", help="the summary as one JSON object")
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.file.is_file():
+        raise AuvlinkError(f"{args.file}: no such file")
+    fmt = formats.get(args.format)
+    out = sys.stdout
+    n_records = 0
+
+    def emit(record: object) -> None:
+        nonlocal n_records
+        n_records += 1
+        if args.jsonl:
+            payload = fmt.to_json(record) if fmt.to_json else record
+            out.write(dumps(payload) + "\n")
+
+    result = decode_path(args.file, fmt, emit)
+    for problem in result.problems[:50]:
+        print(f"auvlink decode: {args.file.name}: {problem}", file=sys.stderr)
+    if len(result.problems) > 50:
+        print(f"auvlink decode: ... and {len(result.problems) - 50} more problems", file=sys.stderr)
+    if args.json:
+        out.write(dumps(result.summary()) + "\n")
+    elif not args.jsonl:
+        out.write(result.human_summary() + "\n")
+    if n_records == 0:
+        print(
+            f"auvlink: error: {args.file}: no {fmt.name} record could be decoded ({result.reason()})",
+            file=sys.stderr,
+        )
+        return 2
+    return 0

@@ -1,0 +1,115 @@
+"""Decode throughput: PD0 ensembles/s against dolfyn 1.3.0 in the same run; sonar frames/s.
+
+Run: ``auvlink bench decode --out DIR`` (or ``python benchmarks/bench_decode.py --out DIR``).
+PD0 is measured on the real capture RDI_withBT.000 (../shared/data) through the framer and the
+codec, per frame and through the bulk (vectorized) path; dolfyn reads the same file in its own venv.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from _common import best_time, table, write_json
+
+from auvlink import formats
+from auvlink.decode_file import decode_bytes
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def _pd0(quick: bool) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    import peer_dolfyn
+
+    path = SHARED / "rdi" / "RDI_withBT.000"
+    if not path.is_file():
+        return [], {"pd0": f"skipped: {path} not found"}
+    data = path.read_bytes()
+    fmt = formats.get("pd0")
+    n = decode_bytes(data, fmt, lambda r: None).records
+    repeat = 3 if quick else 7
+    t_frame = best_time(lambda: decode_bytes(data, fmt, lambda r: None), repeat)
+    rows = [{"what": "pd0 framer+decode (auvlink)", "items": n, "seconds": t_frame, "per_s": n / t_frame}]
+    extra: dict[str, Any] = {}
+    try:
+        from auvlink.codecs.pd0_bulk import decode_file_bulk
+    except ImportError:
+        decode_file_bulk = None
+    if decode_file_bulk is not None:
+        t_bulk = best_time(lambda: decode_file_bulk(data), repeat)
+        rows.append({"what": "pd0 bulk decode (auvlink)", "items": n, "seconds": t_bulk, "per_s": n / t_bulk})
+    peer, reason = peer_dolfyn.time_dolfyn(path, repeat=2 if quick else 5)
+    if peer is None:
+        extra["dolfyn"] = f"skipped: {reason}"
+    else:
+        rows.append({"what": f"pd0 dolfyn {peer['version']}", "items": int(peer["ensembles"]),
+                     "seconds": peer["seconds"], "per_s": peer["ensembles"] / peer["seconds"]})
+        for row in rows[:-1]:
+            row["x_dolfyn"] = row["per_s"] / rows[-1]["per_s"]
+    return rows, extra
+
+
+def _sonar(quick: bool) -> list[dict[str, Any]]:
+    rows: list[dict[str, Any]] = []
+    aris_path = SHARED / "aris" / "sample.aris"
+    if aris_path.is_file():
+        data = aris_path.read_bytes()
+        fmt = formats.get("aris")
+        n = decode_bytes(data, fmt, lambda r: None).records
+        reps = 20 if quick else 100
+        t = best_time(lambda: [decode_bytes(data, fmt, lambda r: None) for _ in range(reps)], 3) / reps
+        rows.append({"what": "aris file decode (48x2000)", "items": n, "seconds": t, "per_s": n / t})
+    try:
+        from auvlink.codecs import didson
+    except ImportError:
+        return rows
+    rng = np.random.default_rng(0)
+    image = rng.integers(0, 256, size=(512, 96), dtype=np.uint8)
+    frames = [didson.encode(didson.build(image=image, frame_index=i, time=1.7e9 + i * 0.1,
+                                         window_start_m=1.0, window_length_m=10.0))
+              for i in range(50)]
+    stream = b"".join(frames)
+    fmt = formats.get("didson")
+    t = best_time(lambda: decode_bytes(stream, fmt, lambda r: r.image.sum()), 3)
+    rows.append({"what": "didson stream framer+decode (96x512)", "items": len(frames), "seconds": t,
+                 "per_s": len(frames) / t})
+    return rows
+
+
+def _small(quick: bool) -> list[dict[str, Any]]:
+    """Navigation formats: frames/s through framer + codec on synthetic streams."""
+    rows = []
+    try:
+        from auvlink.codecs import dsp1760
+    except ImportError:
+        return rows
+    frames = [dsp1760.encode(dsp1760.build(gyro=(1e-4, 2e-4, 3e-4), accel=(0.0, 0.0, -1.0),
+                                           sequence=i % 128, temperature_c=25)) for i in range(20000)]
+    stream = b"".join(frames)
+    fmt = formats.get("dsp1760")
+    t = best_time(lambda: decode_bytes(stream, fmt, lambda r: None), 3)
+    rows.append({"what": "dsp1760 framer+decode", "items": len(frames), "seconds": t, "per_s": len(frames) / t})
+    return rows
+
+
+def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    pd0_rows, extra = _pd0(quick)
+    rows = pd0_rows + _sonar(quick) + _small(quick)
+    print(table(rows, ["what", "items", "seconds", "per_s", "x_dolfyn"]))
+    for key, msg in extra.items():
+        print(f"{key}: {msg}")
+    result = {"rows": rows, "notes": extra, "elapsed_s": time.perf_counter() - t0}
+    write_json(out_dir, "decode", result)
+    return result
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--out", type=Path, default=Path("bench-out"))
+    ap.add_argument("--full", action="store_true")
+    a = ap.parse_args()
+    run(quick=not a.full, out_dir=a.out)
