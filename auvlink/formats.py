@@ -1,6 +1,7 @@
 """The open registry of wire formats: a name -> codec pair + framer, imported only when used.
 
-Each codec module defines ``WIRE_FORMAT = WireFormat(...)``. Third parties add formats with
+Each codec module defines ``WIRE_FORMAT = WireFormat(...)`` (a registry entry ``"module:NAME"``
+picks another attribute, e.g. the DSP-3000's angle-mode variants). Third parties add formats with
 :func:`register` or through the ``auvlink.formats`` entry-point group (``name = "pkg.module"``).
 
 =========  =================  ==============================================================
@@ -9,7 +10,7 @@ name       encoding (MCAP)    what
 pd0        rdi.pd0            Teledyne RDI PD0 binary ensembles (DVL / ADCP)
 pd6        rdi.pd6            Teledyne RDI PD6 ASCII navigation lines
 dsp1760    kvh.dsp1760        KVH DSP-1750/1760 36-byte binary FOG messages
-dsp3000    kvh.dsp3000        KVH DSP-3000 ASCII FOG lines
+dsp3000    kvh.dsp3000        KVH DSP-3000 ASCII FOG lines (rate; ``_incremental``, ``_integrated``)
 keller     keller.bus         Keller bus (F48 / F73) request and response frames
 paro       paro.digiquartz    Paroscientific Digiquartz ASCII ``*0001...`` lines
 aris       soundmetrics.aris  Sound Metrics ARIS frames (1024-byte header + image)
@@ -53,6 +54,8 @@ _MODULES: dict[str, str] = {
     "pd6": "auvlink.codecs.pd6",
     "dsp1760": "auvlink.codecs.dsp1760",
     "dsp3000": "auvlink.codecs.dsp3000",
+    "dsp3000_incremental": "auvlink.codecs.dsp3000:WIRE_FORMAT_INCREMENTAL",
+    "dsp3000_integrated": "auvlink.codecs.dsp3000:WIRE_FORMAT_INTEGRATED",
     "keller": "auvlink.codecs.keller",
     "paro": "auvlink.codecs.paro",
     "aris": "auvlink.codecs.aris",
@@ -86,8 +89,9 @@ def get(name: str) -> WireFormat:
                 break
     if not module_path:
         raise UnknownFormatError(f"unknown wire format {name!r}; known: {', '.join(names())}")
-    module = importlib.import_module(module_path)
-    fmt: WireFormat = module.WIRE_FORMAT
+    module_name, _, attr = module_path.partition(":")
+    module = importlib.import_module(module_name)
+    fmt: WireFormat = getattr(module, attr or "WIRE_FORMAT")
     _LOADED[name] = fmt
     return fmt
 

@@ -15,12 +15,11 @@ from auvlink.decode_file import decode_path
 from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import dumps
 
-FILE_FORMATS = ("pd0", "pd6", "dsp1760", "dsp3000", "keller", "paro", "aris", "didson", "can")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", type=Path, help="the file to decode (a raw capture of the wire format)")
-    p.add_argument("--format", "-f", required=True, choices=FILE_FORMATS, help="wire format of FILE")
+    p.add_argument("--format", "-f", required=True, choices=formats.names(), help="wire format of FILE")
     p.add_argument("--jsonl", action="store_true", help="one JSON object per record on stdout")
     p.add_argument("--json", action="store_true", help="the summary as one JSON object")
 
