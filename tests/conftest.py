@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -31,3 +32,38 @@ def no_leaked_threads() -> Iterator[None]:
         t.join(timeout=2.0)
     still = [t.name for t in leaked if t.is_alive()]
     assert not still, f"test leaked threads: {still}"
+
+
+def _open_fds() -> dict[int, str]:
+    fds: dict[int, str] = {}
+    for entry in os.listdir("/proc/self/fd"):
+        try:
+            target = os.readlink(f"/proc/self/fd/{entry}")
+        except OSError:  # the directory listing's own descriptor, closed by now
+            continue
+        fds[int(entry)] = target
+    return fds
+
+
+@pytest.fixture
+def no_leaked_fds() -> Iterator[None]:
+    """Opt-in: fail a test that leaves a file descriptor open (a pty, socket or port it forgot)."""
+    if not os.path.isdir("/proc/self/fd"):
+        yield
+        return
+    before = _open_fds()
+    yield
+    leaked = {fd: t for fd, t in _open_fds().items() if before.get(fd) != t}
+    assert not leaked, f"test leaked file descriptors: {leaked}"
+
+
+@pytest.fixture
+def no_leaked_can_buses() -> Iterator[None]:
+    """Opt-in: fail a test that leaves a python-can virtual bus open (it was never shut down)."""
+    from can.interfaces import virtual
+
+    before = {name: len(queues) for name, queues in virtual.channels.items()}
+    yield
+    after = {name: len(queues) for name, queues in virtual.channels.items()}
+    leaked = {name: n - before.get(name, 0) for name, n in after.items() if n > before.get(name, 0)}
+    assert not leaked, f"test leaked virtual CAN buses (channel: count): {leaked}"

@@ -9,6 +9,7 @@ URL forms (the scheme picks the backend module, imported only when used):
 ``tcp://127.0.0.1:5000``            TCP client (sonar frames)
 ``tcp-listen://127.0.0.1:5000``     TCP server: accepts one client at a time
 ``can://virtual/chan0``             python-can bus: ``can://INTERFACE/CHANNEL?bitrate=..``
+``pty:///tmp/auv/fog``              the instrument's end of a new pty (:mod:`auvlink.virtual`)
 ==================================  =======================================================
 
 The base class owns policy: open/close, the context manager, byte counters and timeouts.
@@ -20,7 +21,7 @@ from __future__ import annotations
 import importlib
 from abc import ABC, abstractmethod
 from types import TracebackType
-from typing import ClassVar
+from typing import ClassVar, Self
 from urllib.parse import parse_qsl, urlsplit
 
 from auvlink.errors import TransportInitError, TransportOperationError
@@ -34,6 +35,7 @@ _SCHEMES: dict[str, str] = {
     "tcp": "auvlink.transports.tcp:TcpClientTransport",
     "tcp-listen": "auvlink.transports.tcp:TcpServerTransport",
     "can": "auvlink.transports.can_bus:CanTransport",
+    "pty": "auvlink.virtual:PtyTransport",
 }
 
 
@@ -50,7 +52,7 @@ class Transport(ABC):
         self._is_open = False
 
     # -- policy ---------------------------------------------------------------------------
-    def open(self) -> Transport:
+    def open(self) -> Self:
         if not self._is_open:
             try:
                 self._open()
@@ -94,7 +96,7 @@ class Transport(ABC):
             raise TransportOperationError(f"{self.url}: write failed: {exc}") from exc
         self.bytes_written += len(data)
 
-    def __enter__(self) -> Transport:
+    def __enter__(self) -> Self:
         return self.open()
 
     def __exit__(

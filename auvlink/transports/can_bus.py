@@ -15,7 +15,11 @@ For serial-backed interfaces (``slcan``, ``serial``, ``robotell``, ``seeedstudio
 written without its leading slash (``can://slcan/dev/ttyACM0``) means ``/dev/ttyACM0``.
 Query values become keyword arguments of ``can.Bus`` (numbers and ``true``/``false`` converted),
 so any option of the interface can be given (``bitrate``, ``receive_own_messages``,
-``tty_baudrate``, ``sleep_after_open``, ...).
+``tty_baudrate``, ``sleep_after_open``, ...). python-can's slcan interface waits 2 s after opening
+the port (for adapters that reset on open) unless ``sleep_after_open=0``.
+
+A received message that a raw frame cannot carry (a CAN FD payload over 8 bytes) is skipped and
+counted in :attr:`CanTransport.messages_skipped`; the reason of the last one is in ``last_skip``.
 
 A CAN bus carries messages, not bytes: the transport turns each received ``can.Message`` into
 one fixed-size raw frame (:func:`auvlink.framing.can_frames.message_to_frame`) so the driver,
@@ -27,7 +31,7 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-from auvlink.errors import TransportInitError, TransportOperationError
+from auvlink.errors import EncodeError, TransportInitError, TransportOperationError
 from auvlink.transports.base import Transport, url_query
 
 #: messages drained per read after the first one arrived (bounds one read's latency)
@@ -79,6 +83,8 @@ class CanTransport(Transport):
         self._pending = bytearray()  # a partial frame from the last write
         self.messages_read = 0
         self.messages_written = 0
+        self.messages_skipped = 0  # received but not representable as a raw frame
+        self.last_skip = ""
 
     @property
     def bus(self) -> Any:
@@ -115,7 +121,11 @@ class CanTransport(Transport):
         try:
             msg = bus.recv(timeout)
             while msg is not None:
-                frames.append(message_to_frame(msg))
+                try:
+                    frames.append(message_to_frame(msg))
+                except EncodeError as exc:  # e.g. a CAN FD payload over 8 bytes: skip, count
+                    self.messages_skipped += 1
+                    self.last_skip = str(exc)
                 if len(frames) >= MAX_BATCH:
                     break
                 msg = bus.recv(0)

@@ -21,12 +21,13 @@ kept for pyserial habits: reads are bounded per call by ``read(timeout)``). Othe
 from __future__ import annotations
 
 import io
+import os
 import select
 from typing import Any, ClassVar
 
 import serial
 
-from auvlink.errors import TransportInitError, TransportTimeoutError
+from auvlink.errors import TransportInitError, TransportOperationError, TransportTimeoutError
 from auvlink.transports.base import Transport, url_query
 
 #: the largest chunk one read returns (a pty holds about 4 KiB, a socket buffer more)
@@ -97,13 +98,14 @@ class SerialTransport(Transport):
         self.port_url, self.settings = parse_serial_url(url)
         self._port: serial.SerialBase | None = None
         self._fd: int | None = None
+        self._direct = False  # a plain POSIX port: os.read on its descriptor (2x faster than pyserial's read)
         self._timeout: float | None = -1.0  # the timeout last given to the port (-1: none yet)
 
     @property
     def port(self) -> serial.SerialBase:
         """The open pyserial port (for modem lines, break, baud-rate changes)."""
         if self._port is None:
-            raise TransportInitError(f"{self.url}: port not open")
+            raise TransportOperationError(f"{self.url}: port not open")
         return self._port
 
     def _open(self) -> None:
@@ -117,6 +119,7 @@ class SerialTransport(Transport):
             self._fd = None  # loop://, rfc2217://: poll through pyserial's own timeout instead
         if self._fd is not None:
             port.timeout = 0  # we select() on the descriptor; pyserial then reads without blocking
+        self._direct = self._fd is not None and type(port).read is serial.Serial.read
         self._timeout = 0.0 if self._fd is not None else -1.0
         self._port = port
 
@@ -127,14 +130,25 @@ class SerialTransport(Transport):
 
     def _read(self, timeout: float | None) -> bytes:
         port = self.port
+        data: bytes
         if self._fd is not None:
             ready, _, _ = select.select([self._fd], [], [], timeout)
-            return port.read(READ_CHUNK) if ready else b""
+            if not ready:
+                return b""
+            if not self._direct:
+                return bytes(port.read(READ_CHUNK))
+            try:
+                data = os.read(self._fd, READ_CHUNK)
+            except BlockingIOError:
+                return b""
+            if not data:
+                raise TransportOperationError(f"{self.url}: device readable but returned no data (gone?)")
+            return data
         if timeout != self._timeout:
             port.timeout = timeout
             self._timeout = timeout
         waiting = port.in_waiting
-        data: bytes = port.read(waiting if waiting else 1)
+        data = port.read(waiting if waiting else 1)
         if data and not waiting:
             more = port.in_waiting
             if more:

@@ -120,12 +120,11 @@ class TcpClientTransport(Transport):
         ready, _, _ = select.select([self._sock], [], [], timeout)
         if not ready:
             return b""
+        error: OSError | None = None
         try:
             data = self._sock.recv(READ_CHUNK)
         except OSError as exc:
             data, error = b"", exc
-        else:
-            error = None
         if data:
             return data
         self._close()
@@ -198,13 +197,15 @@ class TcpServerTransport(Transport):
         self.clients += 1
 
     def wait_for_client(self, timeout: float | None = None) -> bool:
-        """Block until a client is connected (True) or ``timeout`` s passed (False)."""
+        """Block until a client is connected (True) or ``timeout`` s passed (False).
+
+        A client waiting to connect is accepted even when one is connected (it replaces it).
+        """
         if self._listener is None:
             raise TransportOperationError(f"{self.url}: not listening")
-        if self._client is None:
-            ready, _, _ = select.select([self._listener], [], [], timeout)
-            if ready:
-                self._accept()
+        ready, _, _ = select.select([self._listener], [], [], 0 if self._client else timeout)
+        if ready:
+            self._accept()
         return self._client is not None
 
     def _read(self, timeout: float | None) -> bytes:
@@ -228,8 +229,7 @@ class TcpServerTransport(Transport):
                 return b""
 
     def _write(self, data: bytes) -> None:
-        if self._client is None and self._listener is not None:
-            self.wait_for_client(0)
+        self.wait_for_client(0)  # a write-only server (a sonar) must still see newer clients
         if self._client is None:
             self.bytes_discarded += len(data)
             return
