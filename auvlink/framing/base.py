@@ -9,7 +9,7 @@ so a valid frame hidden inside garbage (or overlapping a damaged one) is never l
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 
 @dataclass
@@ -23,7 +23,7 @@ class FramerStats:
     truncated: int = 0
 
     def as_dict(self) -> dict[str, int]:
-        return asdict(self)
+        return dict(self.__dict__)  # flat ints: a shallow copy (dataclasses.asdict costs ~50 us per frame)
 
 
 class Framer(ABC):
