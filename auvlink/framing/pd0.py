@@ -1,0 +1,129 @@
+"""Framer for Teledyne RDI PD0 ensembles (WorkHorse "Commands and Output Data Format", PD0 chapter).
+
+An ensemble starts ``7F 7F``, then nbytes (u16 LE, the checksum's 2 bytes not counted), a spare
+byte, the number of data types and their u16 offsets; it ends with the u16 sum of bytes
+[0, nbytes). The framer finds a header with ``bytes.find``, rejects implausible ones at once
+(nbytes < 6 or above ``max_nbytes``, offsets table not increasing inside the ensemble), waits for
+nbytes + 2 bytes and checks the sum. A failed sum counts in ``stats.bad_checksums`` and the
+search resumes one byte after that header, so an ensemble overlapping a damaged one is kept.
+
+WorkHorse waves records (``7F 79``, same length and checksum rule) interleaved with ensembles
+are verified and skipped whole: their bytes count as dropped and :attr:`Pd0Framer.waves_records`
+counts them. At end of stream, a header whose ensemble is incomplete is truncated unless a whole
+ensemble follows it (then it was a false header and is dropped).
+"""
+
+from __future__ import annotations
+
+from zlib import adler32
+
+import numpy as np
+
+from auvlink.framing.base import Framer
+
+_PD0 = 0x7F
+_WAVES = 0x79
+_CHUNK = 256  # 255 * 256 + 1 < 65521: Adler-32's A of a chunk is exactly 1 + its byte sum
+_NUMPY_FROM = 2048  # above this many bytes one numpy reduction beats the chunked Adler-32
+
+
+def sum16(buf: bytes | bytearray, start: int, n: int) -> int:
+    """RDI checksum: sum of ``buf[start:start + n]`` modulo 65536 (in C: Adler-32 sums or numpy)."""
+    if n > _NUMPY_FROM:
+        view = np.frombuffer(buf, np.uint8, n, start)
+        total = int(np.add.reduce(view, dtype=np.uint32))
+        del view  # release the buffer export so a bytearray can be resized again
+        return total & 0xFFFF
+    total = 0
+    stop = start + n
+    for k in range(start, stop, _CHUNK):
+        total += (adler32(buf[k : min(k + _CHUNK, stop)]) & 0xFFFF) - 1
+    return total & 0xFFFF
+
+
+class Pd0Framer(Framer):
+    """Cuts a byte stream into whole, checksum-verified PD0 ensembles (``7F 7F`` ... sum)."""
+
+    format_name = "pd0"
+
+    def __init__(self, max_nbytes: int = 0xFFFF) -> None:
+        super().__init__()
+        self.max_nbytes = max_nbytes
+        #: 0x7F79 waves records skipped whole (their bytes are also in ``stats.dropped_bytes``)
+        self.waves_records = 0
+        self._good_headers: set[bytes] = set()  # headers already found plausible (they repeat)
+
+    def _plausible(self, buf: bytearray, i: int, nbytes: int, n: int) -> bool | None:
+        """Header sanity at ``i``: True / False, or None when more bytes are needed to tell."""
+        if i + 6 > n:
+            return None
+        ndt = buf[i + 5]
+        table_end = 6 + 2 * ndt
+        if ndt == 0 or table_end + 2 * ndt > nbytes:
+            return False
+        if i + table_end > n:
+            return None
+        key = bytes(buf[i + 2 : i + table_end])
+        if key in self._good_headers:
+            return True
+        prev = table_end - 2
+        for k in range(ndt):
+            o = i + 6 + 2 * k
+            off = buf[o] | buf[o + 1] << 8
+            if off < prev + 2 or off + 2 > nbytes:
+                return False
+            prev = off
+        if len(self._good_headers) >= 64:
+            self._good_headers.clear()
+        self._good_headers.add(key)
+        return True
+
+    def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
+        frames: list[bytes] = []
+        n = len(buf)
+        pos = 0  # bytes before pos are consumed (frames taken, garbage counted)
+        search = 0
+        pending = -1  # final: start of an incomplete candidate that may be a truncated ensemble
+        wait = -1  # not final: start of a candidate that needs more bytes
+        stats = self.stats
+        while True:
+            i = buf.find(b"\x7f", search)
+            if i < 0:
+                break
+            search = i + 1
+            if i + 1 < n and buf[i + 1] != _PD0 and buf[i + 1] != _WAVES:
+                continue
+            end = -1  # unknown until the header is whole
+            if i + 4 <= n:
+                nbytes = buf[i + 2] | buf[i + 3] << 8
+                if nbytes < 6 or nbytes > self.max_nbytes:
+                    continue
+                ok = self._plausible(buf, i, nbytes, n) if buf[i + 1] == _PD0 else True
+                if ok is False:
+                    continue
+                if ok:
+                    end = i + nbytes + 2
+            if end < 0 or end > n:  # incomplete: wait for bytes, or at the end, maybe truncated
+                if not final:
+                    wait = i
+                    break
+                if pending < 0:
+                    pending = i
+                continue
+            if sum16(buf, i, nbytes) != buf[end - 2] | buf[end - 1] << 8:
+                if pending < 0:
+                    stats.bad_checksums += 1
+                continue
+            stats.dropped_bytes += i - pos
+            pending = -1
+            if buf[i + 1] == _PD0:
+                frames.append(bytes(buf[i:end]))
+            else:
+                self.waves_records += 1
+                stats.dropped_bytes += end - i
+            pos = search = end
+        # keep the earliest candidate still open: it waits for bytes, or flush counts it truncated
+        keep = pending if pending >= 0 else (wait if wait >= 0 else n)
+        stats.dropped_bytes += keep - pos
+        del buf[:keep]
+        return frames
