@@ -31,14 +31,12 @@ def load_stage(stage: str) -> ModuleType:
     path = benchmarks_dir() / f"bench_{stage}.py"
     if not path.is_file():
         raise AuvlinkError(f"no benchmark for stage {stage!r} ({path} is missing)")
-    sys.path.insert(0, str(path.parent))
-    try:
-        spec = importlib.util.spec_from_file_location(f"auvlink_bench_{stage}", path)
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(path.parent))
+    if str(path.parent) not in sys.path:  # the scripts import their helpers (_common, peers) by name
+        sys.path.insert(0, str(path.parent))
+    spec = importlib.util.spec_from_file_location(f"auvlink_bench_{stage}", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
     return module
 
 

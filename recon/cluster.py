@@ -1,0 +1,221 @@
+"""DBSCAN clustering of object points into :class:`DetectedObject`, in batch and streaming.
+
+DBSCAN runs in Open3D (``PointCloud.cluster_dbscan``) by default, scikit-learn as the alternative
+(the same definition: a core point has >= ``min_points`` neighbours within ``eps``, itself included).
+Memory is bounded: a cloud larger than ``max_points`` is first reduced to one point per occupied
+voxel (centroid, voxel grid anchored at the world origin, so batch and streaming see the same
+voxels); labels go back to every original point through the voxel index.
+
+Streaming (:class:`StreamingClusterer`): points are added as they come; :meth:`poll` clusters the
+points not yet emitted and finalizes a cluster once the vehicle is past it: no new point for
+``quiet_s`` seconds and the vehicle horizontally farther than ``margin`` m from its bounding box.
+Its points then leave the working set. Points arriving later within ``eps`` of a finalized object
+are counted in ``late_points`` and dropped (no duplicate objects); old noise points are pruned after
+``noise_keep_s``. Where no object is revisited after it was finalized (and noise is not pruned
+under a growing cluster), streaming returns exactly the batch objects.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ClusterConfig:
+    eps: float = 0.3  # m
+    min_points: int = 8
+    min_cluster_points: int = 25  # smaller clusters are noise
+    max_points: int = 200_000  # above this, voxel-downsample first
+    voxel: float = 0.05  # m
+    backend: Literal["open3d", "sklearn"] = "open3d"
+    quiet_s: float = 3.0
+    margin: float = 2.0  # m
+    noise_keep_s: float = 60.0
+
+
+@dataclass(frozen=True, eq=False)
+class DetectedObject:
+    """One cluster: centroid (NED m), axis-aligned extent (N, E, D sizes in m), its points."""
+
+    id: int
+    centroid: F64
+    extent: F64
+    points: F64
+    n_points: int
+    t_first: float
+    t_last: float
+    times: F64 = field(repr=False, default_factory=lambda: np.zeros(0))
+
+    @property
+    def size(self) -> F64:
+        return self.extent
+
+    def to_dict(self) -> dict[str, Any]:
+        """The geometric part of a detections.jsonl line (class and score come from classify)."""
+        return {"id": self.id, "position_ned": [float(v) for v in self.centroid],
+                "size": [float(v) for v in self.extent], "n_points": self.n_points,
+                "t_first": self.t_first, "t_last": self.t_last}
+
+
+def voxel_downsample(points: F64, voxel: float) -> tuple[F64, NDArray[np.int64]]:
+    """One centroid per occupied voxel and, per input point, the index of its voxel."""
+    cells = np.floor(points / voxel).astype(np.int64)
+    _, inv, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    cent = np.stack([np.bincount(inv, weights=points[:, k]) for k in range(3)], axis=1) / counts[:, None]
+    return cent, inv
+
+
+def dbscan_labels(points: ArrayLike, eps: float, min_points: int,
+                  backend: Literal["open3d", "sklearn"] = "open3d") -> NDArray[np.int64]:
+    """DBSCAN labels (-1 = noise) of (N, 3) points."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if p.shape[0] == 0:
+        return np.zeros(0, np.int64)
+    local = p - p.mean(axis=0)  # keep the neighbour search well conditioned far from the origin
+    if backend == "sklearn":
+        from sklearn.cluster import DBSCAN
+
+        return np.asarray(DBSCAN(eps=eps, min_samples=min_points).fit(local).labels_, dtype=np.int64)
+    import open3d as o3d
+
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(local))
+    labels = pcd.cluster_dbscan(eps=eps, min_points=min_points, print_progress=False)
+    return np.asarray(labels, dtype=np.int64)
+
+
+def _objects(points: F64, times: F64, labels: NDArray[np.int64], min_size: int) -> list[tuple[F64, F64]]:
+    out: list[tuple[F64, F64]] = []
+    if labels.size == 0:
+        return out
+    order = np.argsort(labels, kind="stable")
+    lab = labels[order]
+    starts = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
+    for s, e in zip(starts, np.r_[starts[1:], lab.size], strict=True):
+        if lab[s] < 0 or e - s < min_size:
+            continue
+        idx = np.sort(order[s:e])
+        out.append((points[idx], times[idx]))
+    return out
+
+
+def _make(i: int, pts: F64, ts: F64) -> DetectedObject:
+    return DetectedObject(id=i, centroid=pts.mean(axis=0), extent=pts.max(axis=0) - pts.min(axis=0),
+                          points=pts, n_points=int(pts.shape[0]), t_first=float(ts.min()),
+                          t_last=float(ts.max()), times=ts)
+
+
+def cluster_labels(points: F64, cfg: ClusterConfig) -> NDArray[np.int64]:
+    """Labels per point, voxel-downsampling first when the cloud is larger than ``max_points``."""
+    if points.shape[0] > cfg.max_points:
+        cent, inv = voxel_downsample(points, cfg.voxel)
+        return dbscan_labels(cent, cfg.eps, cfg.min_points, cfg.backend)[inv]
+    return dbscan_labels(points, cfg.eps, cfg.min_points, cfg.backend)
+
+
+def cluster(points: ArrayLike, times: ArrayLike, config: ClusterConfig | None = None) -> list[DetectedObject]:
+    """Batch clustering: objects ordered by first sighting (then north), ids 0, 1, ..."""
+    cfg = config or ClusterConfig()
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    t = np.asarray(times, dtype=np.float64).reshape(-1)
+    groups = _objects(p, t, cluster_labels(p, cfg), cfg.min_cluster_points)
+    groups.sort(key=lambda g: (float(g[1].min()), float(g[0][:, 0].mean())))
+    return [_make(i, g[0], g[1]) for i, g in enumerate(groups)]
+
+
+class StreamingClusterer:
+    """Clusters as the survey goes; objects are emitted once the vehicle is past them."""
+
+    def __init__(self, config: ClusterConfig | None = None) -> None:
+        self.config = config or ClusterConfig()
+        self._pts: list[F64] = []
+        self._ts: list[F64] = []
+        self._final: list[F64] = []
+        self._final_tree: cKDTree | None = None
+        self._next_id = 0
+        self.late_points = 0
+        self.pruned_points = 0
+
+    def add(self, points: ArrayLike, times: ArrayLike) -> None:
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        t = np.broadcast_to(np.asarray(times, dtype=np.float64), (p.shape[0],)).copy()
+        if p.shape[0] == 0:
+            return
+        if self._final_tree is not None:
+            d, _ = self._final_tree.query(p, distance_upper_bound=self.config.eps)
+            late = np.isfinite(d)
+            self.late_points += int(late.sum())
+            p, t = p[~late], t[~late]
+        self._pts.append(p)
+        self._ts.append(t)
+
+    @property
+    def n_active(self) -> int:
+        return int(sum(a.shape[0] for a in self._pts))
+
+    def _active(self) -> tuple[F64, F64]:
+        if not self._pts:
+            return np.zeros((0, 3)), np.zeros(0)
+        p, t = np.concatenate(self._pts), np.concatenate(self._ts)
+        self._pts, self._ts = [p], [t]
+        return p, t
+
+    def poll(self, vehicle_position: ArrayLike, t_now: float) -> list[DetectedObject]:
+        """Finalize and return the clusters the vehicle is past (see the module docstring)."""
+        cfg = self.config
+        p, t = self._active()
+        if p.shape[0] == 0:
+            return []
+        veh = np.asarray(vehicle_position, dtype=np.float64).reshape(3)
+        labels = cluster_labels(p, cfg)
+        keep = np.ones(p.shape[0], bool)
+        stale_before = t_now - cfg.noise_keep_s
+        done: list[tuple[F64, F64]] = []
+        for lab in np.unique(labels[labels >= 0]):
+            idx = np.flatnonzero(labels == lab)
+            newest = t[idx].max()
+            if idx.size < cfg.min_cluster_points:
+                if newest < stale_before:  # a small cluster that stopped growing long ago
+                    labels[idx] = -1
+                continue
+            lo, hi = p[idx, :2].min(axis=0), p[idx, :2].max(axis=0)
+            gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo - veh[:2], veh[:2] - hi)))
+            if t_now - newest >= cfg.quiet_s and gap >= cfg.margin:
+                done.append((p[idx], t[idx]))
+                keep[idx] = False
+        stale = (labels < 0) & (t < stale_before)
+        self.pruned_points += int(stale.sum())
+        keep &= ~stale
+        self._pts, self._ts = [p[keep]], [t[keep]]
+        return self._emit(done)
+
+    def _emit(self, done: list[tuple[F64, F64]]) -> list[DetectedObject]:
+        done.sort(key=lambda g: (float(g[1].min()), float(g[0][:, 0].mean())))
+        out = []
+        for pts, ts in done:
+            out.append(_make(self._next_id, pts, ts))
+            self._next_id += 1
+            self._final.append(pts)
+        if done:
+            self._final_tree = cKDTree(np.concatenate(self._final))
+        return out
+
+    def flush(self) -> list[DetectedObject]:
+        """End of mission: every remaining cluster is final."""
+        p, t = self._active()
+        groups = _objects(p, t, cluster_labels(p, self.config), self.config.min_cluster_points)
+        self._pts, self._ts = [], []
+        return self._emit(groups)
+
+
+def single_thread_env() -> None:
+    """Ask OpenMP (Open3D) for one thread; effective only before Open3D is first imported."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")

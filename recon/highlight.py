@@ -1,0 +1,199 @@
+"""Highlight-extension returns: per frame and beam, the first return closer than the seabed onset.
+
+Threshold (adaptive, per frame; robust to speckle and to gain changes, since both statistics scale
+with the gain):
+- ``mad`` (default): median + k * 1.4826 * MAD of the water column, i.e. the rows before the
+  earliest seabed onset of the frame (a strided grid of about ``stats_samples`` pixels), from a
+  256-bin histogram;
+  the water column is mostly speckle, so this is the noise level, whatever objects occupy a
+  minority of it. MAD is floored at one grey level.
+- ``percentile``: ``fraction`` times the ``percentile``-th percentile of the whole frame (the
+  seabed band is the bright reference).
+Either way the threshold is at least ``min_level``. A return must stay above the threshold for
+``min_run`` consecutive bins (isolated speckle pixels are ignored).
+
+Search (vectorized over beams and frames): boolean mask ``image > thr`` limited to rows < the
+beam's onset row minus a margin, first True by ``argmax``. With ``skip`` the search looks only at
+the rows before the latest onset (+ the run length) and a frame whose region holds no pixel above
+the threshold is dropped at the cost of one ``max``; without it the whole image is searched (the
+same points, more work).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from recon.errors import GeometryError
+from recon.frames import check_attitude
+from recon.sonar_geometry import GeometryMode, SonarGeometry
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+MAD_SCALE = 1.4826
+
+
+@dataclass(frozen=True)
+class HighlightConfig:
+    threshold: Literal["mad", "percentile"] = "mad"
+    k: float = 8.0
+    percentile: float = 99.5
+    fraction: float = 0.5
+    min_level: int = 24
+    min_run: int = 2
+    margin_m: float = 0.25  # search only rows closer than onset - margin
+    stats_samples: int = 1024  # pixels per frame behind the robust statistics (strided grid)
+    skip: bool = True
+    geometry: GeometryMode = "exact"
+    dtype: Literal["float64", "float32"] = "float64"
+
+
+@dataclass(frozen=True, eq=False)
+class HighlightPoints:
+    """Points (N, 3) in W with the batch frame index, beam (column) and row of each."""
+
+    points: NDArray[np.floating]
+    frame: I64
+    beam: I64
+    row: I64
+
+    def __len__(self) -> int:
+        return int(self.frame.shape[0])
+
+
+def _hist_median(hist: NDArray[np.int64]) -> I64:
+    """Per-row median value of (F, 256) histograms (lower median)."""
+    c = np.cumsum(hist, axis=1)
+    half = (c[:, -1:] + 1) // 2
+    return np.asarray(np.argmax(c >= half, axis=1), dtype=np.int64)
+
+
+def frame_thresholds(images: NDArray[np.uint8], stat_rows: int, cfg: HighlightConfig) -> F64:
+    """Per-frame thresholds of a (F, bins, beams) uint8 stack (see the module docstring)."""
+    f, n_bins, n_beams = images.shape
+    rows = n_bins if cfg.threshold == "percentile" or stat_rows < 8 else stat_rows
+    cs = 4 if n_beams >= 32 else 1
+    rs = max(1, int(rows * (n_beams // cs) / max(1, cfg.stats_samples)))
+    sample = images[:, :rows:rs, ::cs]
+    offs = (np.arange(f, dtype=np.int64) * 256)[:, None]
+    flat = sample + offs[:, :, None]  # frame f's values in [256 f, 256 f + 256): one bincount for all
+    hist = np.bincount(flat.ravel(), minlength=256 * f).reshape(f, 256)
+    if cfg.threshold == "percentile":
+        c = np.cumsum(hist, axis=1)
+        q = np.argmax(c >= (cfg.percentile / 100.0) * c[:, -1:], axis=1)
+        thr = cfg.fraction * q.astype(np.float64)
+    else:
+        med = _hist_median(hist)
+        dist = np.abs(np.arange(256)[None, :] - med[:, None]) + offs
+        dhist = np.bincount(dist.ravel(), weights=hist.ravel(), minlength=256 * f).reshape(f, 256)
+        mad = np.maximum(_hist_median(dhist.astype(np.int64)), 1).astype(np.float64)
+        thr = med + cfg.k * MAD_SCALE * mad
+    return np.maximum(thr, float(cfg.min_level))
+
+
+def onset_rows(geometry: SonarGeometry, onset: F64, margin_m: float) -> I64:
+    """Row limits (exclusive) per frame and beam: rows whose range is < onset - margin."""
+    lim = np.ceil(geometry.range_to_row(onset - margin_m))
+    lim = np.where(np.isfinite(lim), lim, geometry.n_bins)
+    return np.clip(lim, 0, geometry.n_bins).astype(np.int64)
+
+
+def first_returns(images: NDArray[np.uint8], limits: I64, thr: F64, cfg: HighlightConfig
+                  ) -> tuple[I64, I64, I64]:
+    """(frame, beam, row) of the first run above ``thr`` in rows < ``limits`` (F, beams)."""
+    f, n_bins, _ = images.shape
+    run = max(1, cfg.min_run)
+    hi = int(limits.max(initial=0)) if cfg.skip else n_bins
+    if hi == 0:
+        return (np.zeros(0, np.int64),) * 3
+    stop = min(n_bins, hi + run - 1)
+    region = images[:, :stop]
+    thr_u = np.clip(np.floor(thr), 0, 255).astype(np.uint8)  # x > thr <=> x > floor(thr) for integers
+    if cfg.skip:
+        live = np.flatnonzero(region.max(axis=(1, 2)) > thr_u)
+        if live.size == 0:
+            return (np.zeros(0, np.int64),) * 3
+        if live.size < f:
+            region, limits, thr_u = region[live], limits[live], thr_u[live]
+    else:
+        live = np.arange(f)
+    above = region > thr_u[:, None, None]
+    n_valid = stop - run + 1
+    if n_valid <= 0:
+        return (np.zeros(0, np.int64),) * 3
+    mask = above[:, :n_valid]
+    for k in range(1, run):  # a run of `run` bins above the threshold starts here
+        mask = mask & above[:, k : k + n_valid]
+    rows = np.arange(mask.shape[1])
+    mask = mask & (rows[None, :, None] < limits[:, None, :])
+    first = np.argmax(mask, axis=1)  # (F', beams)
+    hit = np.take_along_axis(mask, first[:, None, :], axis=1)[:, 0, :]
+    fi, bi = np.nonzero(hit)
+    return live[fi].astype(np.int64), bi.astype(np.int64), first[fi, bi].astype(np.int64)
+
+
+def returns_between(images: NDArray[np.uint8], lo: I64, hi: I64, thr: F64, min_run: int = 2
+                    ) -> tuple[I64, I64, I64]:
+    """(frame, beam, row) of the first run above ``thr`` with lo <= row < hi (both (F, beams)).
+
+    Used for the seabed returns at the onset (lo = onset row - margin, hi = lo + a band).
+    """
+    n_bins = images.shape[1]
+    a, b = int(lo.min(initial=n_bins)), int(min(n_bins, hi.max(initial=0) + max(1, min_run) - 1))
+    if b - a < max(1, min_run):
+        return (np.zeros(0, np.int64),) * 3
+    thr_u = np.clip(np.floor(thr), 0, 255).astype(np.uint8)
+    above = images[:, a:b] > thr_u[:, None, None]
+    n_valid = b - a - max(1, min_run) + 1
+    mask = above[:, :n_valid]
+    for k in range(1, max(1, min_run)):
+        mask = mask & above[:, k : k + n_valid]
+    rows = np.arange(a, a + n_valid)[None, :, None]
+    mask = mask & (rows >= lo[:, None, :]) & (rows < hi[:, None, :])
+    first = np.argmax(mask, axis=1)
+    hit = np.take_along_axis(mask, first[:, None, :], axis=1)[:, 0, :]
+    fi, bi = np.nonzero(hit)
+    return fi.astype(np.int64), bi.astype(np.int64), (first[fi, bi] + a).astype(np.int64)
+
+
+def project(geometry: SonarGeometry, frame: I64, beam: I64, row: I64, positions: F64, rotations: Rotation,
+            mode: GeometryMode = "exact", dtype: str = "float64", phi: F64 | None = None
+            ) -> NDArray[np.floating]:
+    """World points of returns (frame, beam, row) placed on the highlight ray (or at ``phi``)."""
+    dt = np.dtype(dtype)
+    r = geometry.ranges[row].astype(dt)
+    if phi is None:
+        dirs = geometry.highlight_directions(mode).astype(dt)[beam]
+    else:
+        dirs = geometry.directions_body(phi, geometry.azimuths[beam]).astype(dt)
+    p_b = r[:, None] * dirs + geometry.mounting.lever.astype(dt)
+    mats = rotations.as_matrix().reshape(-1, 3, 3).astype(dt)[frame]
+    pos = np.asarray(positions, dtype=dt).reshape(-1, 3)[frame]
+    return np.einsum("nij,nj->ni", mats, p_b) + pos
+
+
+def extract(images: NDArray[np.uint8], positions: F64, rotations: Rotation, onset: F64,
+            geometry: SonarGeometry, cfg: HighlightConfig | None = None) -> HighlightPoints:
+    """Highlight-extension points of a stack of frames (F, n_bins, n_beams) uint8.
+
+    ``positions`` (F, 3) / ``rotations`` (F) are the vehicle poses at the frame times, ``onset``
+    (F, n_beams) the expected seabed onset ranges (:meth:`SonarGeometry.onset_ranges`).
+    """
+    c = cfg or HighlightConfig()
+    imgs = np.asarray(images)
+    if imgs.ndim == 2:
+        imgs = imgs[None]
+    if imgs.dtype != np.uint8 or imgs.shape[1:] != (geometry.n_bins, geometry.n_beams):
+        raise GeometryError(f"expected uint8 frames of {(geometry.n_bins, geometry.n_beams)}, "
+                            f"got {imgs.dtype} {imgs.shape[1:]}")
+    check_attitude(rotations)
+    limits = onset_rows(geometry, np.atleast_2d(onset), c.margin_m)
+    stat_rows = int(limits.min(initial=geometry.n_bins))
+    thr = frame_thresholds(imgs, stat_rows, c)
+    fi, bi, ri = first_returns(imgs, limits, thr, c)
+    pts = project(geometry, fi, bi, ri, positions, rotations, c.geometry, c.dtype)
+    return HighlightPoints(pts, fi, bi, ri)

@@ -1,0 +1,258 @@
+"""The reconstruction pipeline: sonar frames + poses -> object points -> objects.
+
+:class:`Reconstructor` consumes frames (time, (n_bins, n_beams) uint8 image) and a pose source (a
+:class:`recon.trajectory.Trajectory` or anything with ``pose_at`` and ``altitude_at``). Per frame:
+pose interpolated at the frame time, expected seabed onset per beam (flat seabed at the DVL
+altitude), highlight-extension points (:mod:`recon.highlight`, optionally front-slope corrected,
+:mod:`recon.front_slope`) and, every ``seabed_every``-th frame, the seabed returns at the onset.
+Points wait in a pending buffer; :meth:`poll` (streaming) or :meth:`finish` (batch) removes the
+seabed (:mod:`recon.seabed`, fitted from the DVL seabed points and the sonar seabed returns) and
+clusters (:mod:`recon.cluster`). Pure computation: no ports, no files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster
+from recon.errors import GeometryError, ReconError
+from recon.frames import check_attitude
+from recon.front_slope import carve_keep
+from recon.highlight import (
+    HighlightConfig,
+    first_returns,
+    frame_thresholds,
+    onset_rows,
+    project,
+    returns_between,
+)
+from recon.seabed import SeabedConfig, SeabedModel, object_mask
+from recon.sonar_geometry import SonarGeometry
+
+F64 = NDArray[np.float64]
+
+
+class PoseSource(Protocol):
+    def pose_at(self, t: ArrayLike) -> tuple[F64, Rotation]: ...
+
+    def altitude_at(self, t: ArrayLike) -> F64: ...
+
+
+@dataclass(frozen=True)
+class ReconConfig:
+    highlight: HighlightConfig = field(default_factory=HighlightConfig)
+    seabed: SeabedConfig = field(default_factory=SeabedConfig)
+    cluster: ClusterConfig = field(default_factory=ClusterConfig)
+    front_slope: bool = True  # visibility carving of the front slope (recon.front_slope)
+    front_slope_baseline: tuple[float, float] = (0.2, 3.0)  # m: distance of the witness frames
+    front_slope_window: int = 64  # frames kept as witnesses
+    front_slope_tol_bins: float = 1.5  # range tolerance of the carving test
+    seabed_every: int = 5  # sonar seabed returns from every n-th frame (0 = none)
+    seabed_band_m: float = 1.0  # search the seabed return this far beyond the onset margin
+    remove_seabed: bool = True
+    onset_from_seabed: bool = True  # expected onset from the fitted seabed (sloped seabeds), not flat
+    onset_radius: float = 30.0  # m of seabed points around the vehicle used for that fit
+    onset_refit_frames: int = 100  # refit that seabed at most this often (unless the vehicle left it)
+    seabed_beam_step: int = 4  # sonar seabed returns from every n-th beam
+
+
+class Reconstructor:
+    """Accumulates highlight-extension points and turns them into objects; see the module doc."""
+
+    def __init__(self, geometry: SonarGeometry, poses: PoseSource, config: ReconConfig | None = None,
+                 seabed_points: ArrayLike | None = None) -> None:
+        self.geometry = geometry
+        self.poses = poses
+        self.config = config or ReconConfig()
+        self._pending: list[tuple[F64, F64]] = []
+        self._seabed: list[F64] = []
+        self._raw: list[F64] = []
+        self._hist_origin: list[F64] = []
+        self._hist_range: list[F64] = []
+        self._hist_mws: list[F64] = []
+        self.front_slope_removed = 0
+        self._onset_cache: tuple[F64, F64, int, SeabedModel] | None = None
+        self._onset_fit_frame = 0
+        self._stream: StreamingClusterer | None = None
+        self.objects: list[DetectedObject] = []
+        self.frames = 0
+        self.frames_with_points = 0
+        self.points_total = 0
+        self.seabed_removed = 0
+        self._t_last = -np.inf
+        if seabed_points is None and hasattr(poses, "seabed_points"):
+            seabed_points = poses.seabed_points()
+        if seabed_points is not None:
+            self.add_seabed_points(seabed_points)
+
+    # ---------------------------------------------------------------- frames
+    def add_seabed_points(self, points: ArrayLike) -> None:
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if p.shape[0]:
+            self._seabed.append(p)
+
+    def add_frame(self, t: float, image: NDArray[np.uint8]) -> int:
+        """One frame; returns the number of highlight-extension points it gave."""
+        return self.add_frames(np.array([t], dtype=np.float64), np.asarray(image)[None])
+
+    def add_frames(self, times: ArrayLike, images: NDArray[np.uint8]) -> int:
+        """A stack of frames (F, n_bins, n_beams) at ``times`` (F,); returns the points added."""
+        g, hc = self.geometry, self.config.highlight
+        ts = np.asarray(times, dtype=np.float64).reshape(-1)
+        imgs = np.asarray(images)
+        if imgs.dtype != np.uint8 or imgs.shape != (ts.size, g.n_bins, g.n_beams):
+            raise GeometryError(f"expected uint8 frames {(ts.size, g.n_bins, g.n_beams)}, "
+                                f"got {imgs.dtype} {imgs.shape}")
+        pos, rot = self.poses.pose_at(ts)
+        check_attitude(rot)
+        alt = self.poses.altitude_at(ts)
+        onset = self._onset(pos, rot, alt)
+        limits = onset_rows(g, onset, hc.margin_m)
+        thr = frame_thresholds(imgs, int(limits.min(initial=g.n_bins)), hc)
+        fi, bi, ri = first_returns(imgs, limits, thr, hc)
+        if self.config.seabed_every > 0:
+            sel = np.flatnonzero((self.frames + np.arange(ts.size)) % self.config.seabed_every == 0)
+            if sel.size:
+                hi = onset_rows(g, onset[sel], hc.margin_m - self.config.seabed_band_m)
+                sf, sb, sr = returns_between(imgs[sel], limits[sel], hi, thr[sel], hc.min_run)
+                step = max(1, self.config.seabed_beam_step)
+                every = sb % step == 0
+                sf, sb, sr = sf[every], sb[every], sr[every]
+                sp = project(g, sf, sb, sr, pos[sel], rot[sel], "exact")
+                self.add_seabed_points(sp)
+        pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
+        if self.config.front_slope:
+            keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)
+            self.front_slope_removed += int((~keep).sum())
+            pts, fi = pts[keep], fi[keep]
+        self.frames += ts.size
+        self.frames_with_points += int(np.unique(fi).size)
+        self.points_total += int(fi.size)
+        self._t_last = max(self._t_last, float(ts.max(initial=-np.inf)))
+        if fi.size:
+            self._pending.append((np.asarray(pts, dtype=np.float64), ts[fi]))
+            self._raw.append(np.asarray(pts, dtype=np.float64))
+        return int(fi.size)
+
+    def _onset(self, pos: F64, rot: Rotation, alt: F64) -> F64:
+        """Expected seabed onset per frame and beam: the fitted seabed plane where the fan looks
+        (DVL + sonar seabed points), else a flat seabed at the DVL altitude."""
+        g = self.geometry
+        flat = g.flat_onset_ranges(pos, rot, alt)
+        if not self.config.onset_from_seabed:
+            return flat
+        model = self._seabed_model(pos)
+        if model is None:
+            return flat
+        known = np.isfinite(alt)
+        h = alt if known.all() else np.where(known, alt, model.depth_at(pos) - pos[:, 2])
+        fwd = rot.as_matrix().reshape(-1, 3, 3)[:, :2, 0]
+        fwd = fwd / np.maximum(np.linalg.norm(fwd, axis=1, keepdims=True), 1e-9)
+        look = pos[:, :2] + fwd * (np.maximum(h, 0.0) / np.tan(g.tilt + 0.5 * g.spread))[:, None]
+        q, n = model.plane_at(look)
+        return g.onset_ranges(pos, rot, q, n)
+
+    def _seabed_model(self, pos: F64) -> SeabedModel | None:
+        """Seabed model around ``pos`` for the onset, refitted when the data or the area changed."""
+        n_sb = sum(a.shape[0] for a in self._seabed)
+        lo, hi = pos[:, :2].min(axis=0), pos[:, :2].max(axis=0)
+        cached = self._onset_cache
+        if cached is not None:
+            c_lo, c_hi, c_n, model = cached
+            inside = bool(np.all(lo >= c_lo) and np.all(hi <= c_hi))
+            recent = self.frames - self._onset_fit_frame < self.config.onset_refit_frames
+            if inside and (n_sb == c_n or recent):
+                return model
+                return model
+        if n_sb < self.config.seabed.min_points:
+            return None
+        pad = self.config.onset_radius
+        sb = self.seabed_points
+        near = np.all((sb[:, :2] >= lo - pad) & (sb[:, :2] <= hi + pad), axis=1)
+        if near.sum() < self.config.seabed.min_points:
+            return None
+        try:
+            model = SeabedModel.fit(sb[near], self.config.seabed)
+        except ReconError:
+            return None
+        ahead = 12.0  # m: where the fan meets the seabed, ahead of the vehicle, must stay inside the fit
+        self._onset_cache = (lo - pad + ahead, hi + pad - ahead, n_sb, model)
+        self._onset_fit_frame = self.frames
+        return model
+
+    def _carve(self, pts: F64, fi: NDArray[np.int64], bi: NDArray[np.int64], ri: NDArray[np.int64], pos: F64,
+               rot: Rotation, onset: F64) -> NDArray[np.bool_]:
+        """Front-slope correction: keep-mask from visibility carving against earlier frames."""
+        g, cfg = self.geometry, self.config
+        m_wb = rot.as_matrix().reshape(-1, 3, 3)
+        m_ws = m_wb @ g.mounting.rotation.as_matrix()
+        origins = pos + m_wb @ g.mounting.lever
+        # beams without a highlight extension: the first return is the seabed at the expected onset
+        r_first = np.minimum(onset, g.window_start + g.window_length)
+        r_first[fi, bi] = g.ranges[ri]
+        h = len(self._hist_origin)
+        all_o = np.concatenate([np.asarray(self._hist_origin).reshape(-1, 3), origins])
+        all_m = np.concatenate([np.asarray(self._hist_mws).reshape(-1, 3, 3), m_ws])
+        all_r = np.concatenate([np.asarray(self._hist_range).reshape(-1, g.n_beams), r_first])
+        keep = carve_keep(pts, fi + h, all_o, all_m, all_r, g.azimuths, g.spread,
+                          cfg.front_slope_tol_bins * g.bin_size, cfg.front_slope_baseline,
+                          cfg.front_slope_window)
+        w = cfg.front_slope_window
+        self._hist_origin = list(all_o[-w:])
+        self._hist_mws = list(all_m[-w:])
+        self._hist_range = list(all_r[-w:])
+        return keep
+
+    # ---------------------------------------------------------------- objects
+    @property
+    def raw_points(self) -> F64:
+        """Every highlight-extension point so far (before seabed removal), world NED."""
+        return np.concatenate(self._raw) if self._raw else np.zeros((0, 3))
+
+    @property
+    def seabed_points(self) -> F64:
+        return np.concatenate(self._seabed) if self._seabed else np.zeros((0, 3))
+
+    def _filtered_pending(self) -> tuple[F64, F64]:
+        if not self._pending:
+            return np.zeros((0, 3)), np.zeros(0)
+        p = np.concatenate([a for a, _ in self._pending])
+        t = np.concatenate([b for _, b in self._pending])
+        self._pending = []
+        if not self.config.remove_seabed or not self._seabed:
+            return p, t
+        sb = self.seabed_points
+        pad = self.config.seabed.tile * 2.0
+        lo, hi = p[:, :2].min(axis=0) - pad, p[:, :2].max(axis=0) + pad
+        near = np.all((sb[:, :2] >= lo) & (sb[:, :2] <= hi), axis=1)
+        if near.sum() < self.config.seabed.min_points:
+            return p, t
+        keep = object_mask(p, SeabedModel.fit(sb[near], self.config.seabed), self.config.seabed)
+        self.seabed_removed += int((~keep).sum())
+        return p[keep], t[keep]
+
+    def poll(self, vehicle_position: ArrayLike, t_now: float | None = None) -> list[DetectedObject]:
+        """Streaming: objects the vehicle is past, final from now on (classify them now)."""
+        if self._stream is None:
+            self._stream = StreamingClusterer(self.config.cluster)
+        p, t = self._filtered_pending()
+        self._stream.add(p, t)
+        out = self._stream.poll(vehicle_position, self._t_last if t_now is None else t_now)
+        self.objects.extend(out)
+        return out
+
+    def finish(self) -> list[DetectedObject]:
+        """End of the mission: the remaining objects (all of them when :meth:`poll` was never used)."""
+        p, t = self._filtered_pending()
+        if self._stream is None:
+            out = cluster(p, t, self.config.cluster)
+        else:
+            self._stream.add(p, t)
+            out = self._stream.flush()
+        self.objects.extend(out)
+        return out

@@ -1,0 +1,162 @@
+"""Seabed model from seabed points, and seabed removal by height above it.
+
+The seabed is fitted per square tile (``tile`` m, grid anchored at the world origin) with a plane
+depth = c0 + c1 dx + c2 dy (dx, dy from the tile centre), by iteratively reweighted least squares:
+after a plain fit, the first refit keeps the deeper half of the points (objects only stand above
+the seabed), the next ones give weight 0 to points farther than ``clip_sigma`` sigmas from the
+current fit (objects, mis-detections), sigma being the tile's weighted RMS residual floored at
+``sigma_floor``. Each tile's fit also uses the points within ``overlap`` tiles of its border, and a
+small ridge term keeps the slope at zero along any direction the points do not span (a single
+survey line). Depth at a query point is the bilinear blend of the four surrounding tiles' planes
+evaluated at that point (no steps at tile borders); a tile without enough points borrows its
+nearest fitted neighbour.
+
+Seabed points come from the DVL (vehicle position + altitude along NED down,
+:meth:`recon.trajectory.Trajectory.seabed_points`) and from the sonar's own seabed returns (the first
+return at the seabed onset lies on the steepest ray, so it is a seabed point). Removal keeps the
+points whose height above the local seabed is at least ``min_height``, so sloped seabeds work.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from recon.errors import ReconError
+
+F64 = NDArray[np.float64]
+_OFFS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class SeabedConfig:
+    tile: float = 6.0  # m
+    overlap: float = 0.5  # fraction of a tile added around each tile for its fit
+    min_points: int = 8
+    iterations: int = 5
+    clip_sigma: float = 3.0
+    sigma_floor: float = 0.05  # m
+    ridge: float = 1e-3
+    min_height: float = 0.15  # m above the seabed to count as an object point
+    max_height: float = 10.0  # m: higher returns (fish, surface) are dropped
+
+
+def _key(ij: NDArray[np.int64]) -> NDArray[np.int64]:
+    return (ij[..., 0] << 32) + (ij[..., 1] & 0xFFFFFFFF)
+
+
+class SeabedModel:
+    """Tiled robust plane fit of the seabed; see the module docstring."""
+
+    def __init__(self, tile: float, ij: NDArray[np.int64], coef: F64) -> None:
+        if ij.shape[0] == 0:
+            raise ReconError("seabed model has no fitted tile (too few seabed points)")
+        self.tile = float(tile)
+        order = np.argsort(_key(ij))
+        self.ij = ij[order]
+        self.coef = coef[order]
+        self._keys = _key(self.ij)
+        self._tree = cKDTree(self.ij.astype(np.float64))
+
+    @classmethod
+    def fit(cls, points: ArrayLike, config: SeabedConfig | None = None) -> SeabedModel:
+        cfg = config or SeabedConfig()
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        p = p[np.all(np.isfinite(p), axis=1)]
+        t = cfg.tile
+        cell = np.floor(p[:, :2] / t).astype(np.int64)
+        # every (point, tile) pair: the point's tile and the neighbours whose expanded box holds it
+        pt_idx = np.repeat(np.arange(p.shape[0]), 9)
+        tiles = (cell[:, None, :] + _OFFS[None]).reshape(-1, 2)
+        centre = (tiles + 0.5) * t
+        d = p[pt_idx, :2] - centre
+        inside = np.all(np.abs(d) <= t * (0.5 + cfg.overlap), axis=1)
+        pt_idx, tiles, d = pt_idx[inside], tiles[inside], d[inside] / t
+        keys, tix = np.unique(_key(tiles), return_inverse=True)
+        n_t = keys.size
+        counts = np.bincount(tix, minlength=n_t)
+        z = p[pt_idx, 2]
+        a = np.stack([np.ones_like(d[:, 0]), d[:, 0], d[:, 1]], axis=1)
+        w = np.ones(z.size)
+        coef = np.zeros((n_t, 3))
+        for it in range(max(2, cfg.iterations)):
+            ata = np.zeros((n_t, 3, 3))
+            atz = np.zeros((n_t, 3))
+            for r in range(3):
+                atz[:, r] = np.bincount(tix, weights=w * a[:, r] * z, minlength=n_t)
+                for c in range(r, 3):
+                    s_rc = np.bincount(tix, weights=w * a[:, r] * a[:, c], minlength=n_t)
+                    ata[:, r, c] = ata[:, c, r] = s_rc
+            wsum = np.maximum(ata[:, 0, 0], 1e-12)
+            ata[:, 1, 1] += cfg.ridge * wsum
+            ata[:, 2, 2] += cfg.ridge * wsum
+            ata[:, 0, 0] += 1e-12
+            coef = np.asarray(np.linalg.solve(ata, atz[..., None])[..., 0], dtype=np.float64)
+            res = z - np.einsum("ni,ni->n", a, coef[tix])
+            if it == 0:  # objects only stand above the seabed: restart from the deeper half
+                w = (res >= 0).astype(np.float64)
+                continue
+            wss = np.bincount(tix, weights=w * res**2, minlength=n_t)
+            sigma = np.maximum(np.sqrt(wss / wsum), cfg.sigma_floor)
+            w = (np.abs(res) <= cfg.clip_sigma * sigma[tix]).astype(np.float64)
+        good = np.bincount(tix, weights=w, minlength=n_t) >= cfg.min_points
+        good &= counts >= cfg.min_points
+        ij = np.stack([keys >> 32, (keys & 0xFFFFFFFF).astype(np.int32).astype(np.int64)], axis=1)
+        return cls(t, ij[good], coef[good])
+
+    def _lookup(self, ij: NDArray[np.int64]) -> NDArray[np.int64]:
+        k = _key(ij)
+        pos = np.clip(np.searchsorted(self._keys, k), 0, self._keys.size - 1)
+        found = self._keys[pos] == k
+        if not np.all(found):
+            _, near = self._tree.query(ij[~found].astype(np.float64))
+            pos[~found] = near
+        return pos
+
+    def _blend(self, q: F64) -> tuple[F64, F64]:
+        """Depth and its horizontal gradient (N, 2) at ``q``: bilinear blend of the 4 tile planes."""
+        u = q / self.tile - 0.5
+        i0 = np.floor(u).astype(np.int64)
+        fr = u - i0
+        depth = np.zeros(q.shape[0])
+        grad = np.zeros((q.shape[0], 2))
+        for di in (0, 1):
+            for dj in (0, 1):
+                idx = self._lookup(i0 + np.array([di, dj]))
+                c = self.coef[idx]
+                d = q / self.tile - (self.ij[idx] + 0.5)
+                wx = fr[:, 0] if di else 1.0 - fr[:, 0]
+                wy = fr[:, 1] if dj else 1.0 - fr[:, 1]
+                plane = c[:, 0] + c[:, 1] * d[:, 0] + c[:, 2] * d[:, 1]
+                depth += wx * wy * plane
+                grad[:, 0] += ((1.0 if di else -1.0) * wy * plane + wx * wy * c[:, 1]) / self.tile
+                grad[:, 1] += ((1.0 if dj else -1.0) * wx * plane + wx * wy * c[:, 2]) / self.tile
+        return depth, grad
+
+    def depth_at(self, xy: ArrayLike) -> F64:
+        """Seabed depth (NED z, m) below the horizontal positions ``xy`` (N, 2) (or (N, 3))."""
+        q = np.asarray(xy, dtype=np.float64).reshape(-1, np.shape(xy)[-1])[:, :2]
+        return self._blend(q)[0]
+
+    def height_above(self, points: ArrayLike) -> F64:
+        """Height (m) of NED points above the seabed: seabed depth - point depth."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        return self.depth_at(p) - p[:, 2]
+
+    def plane_at(self, xy: ArrayLike) -> tuple[F64, F64]:
+        """Seabed points (N, 3) under ``xy`` and unit normals (N, 3) pointing up (into the water)."""
+        q = np.asarray(xy, dtype=np.float64).reshape(-1, np.shape(xy)[-1])[:, :2]
+        z, g = self._blend(q)
+        n = np.column_stack([g, -np.ones(q.shape[0])])
+        return np.column_stack([q, z]), n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def object_mask(points: ArrayLike, model: SeabedModel, config: SeabedConfig | None = None
+                ) -> NDArray[np.bool_]:
+    """True for the points to keep: min_height <= height above the local seabed <= max_height."""
+    cfg = config or SeabedConfig()
+    h = model.height_above(points)
+    return (h >= cfg.min_height) & (h <= cfg.max_height)

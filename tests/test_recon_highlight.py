@@ -1,0 +1,125 @@
+"""Highlight extraction on images built from known geometry."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from recon.errors import GeometryError
+from recon.frames import attitude
+from recon.highlight import HighlightConfig, extract, frame_thresholds
+from recon.sonar_geometry import SonarGeometry
+from recon.synthetic import Box, Scene, render, surface_distance
+
+D = np.deg2rad
+G = SonarGeometry()
+
+
+def _frame(rng: np.random.Generator, pos: np.ndarray, rot: Rotation, alt: float,
+           blobs: list[tuple[int, float]], gain: float = 1.0) -> np.ndarray:
+    """Speckle + a seabed band from the analytic onset + bright blobs (beam, range)."""
+    img = rng.integers(0, 14, size=(512, 96)).astype(float)
+    on = G.flat_onset_ranges(pos, rot, [alt])[0]
+    start = np.ceil(G.range_to_row(on)).astype(int)
+    rows = np.arange(512)[:, None]
+    img = np.where(rows >= start[None], rng.uniform(80, 140, img.shape), img)
+    for beam, r in blobs:
+        m = int(np.floor(G.range_to_row(r) + 0.5))
+        img[m : m + 4, beam] = 220
+    return np.clip(img * gain, 0, 255).astype(np.uint8)
+
+
+def test_blob_closer_than_onset_gives_point_at_known_location() -> None:
+    rng = np.random.default_rng(1)
+    pos = np.array([[120.0, -40.0, 14.0]])
+    rot = attitude(D([-150.0]), D([3.0]), D([-2.0]))
+    blobs = [(10, 6.0), (47, 7.2), (48, 7.25), (90, 5.5)]
+    img = _frame(rng, pos, rot, 5.0, blobs)
+    on = G.flat_onset_ranges(pos, rot, [5.0])
+    hp = extract(img, pos, rot, on, G)
+    assert sorted(hp.beam.tolist()) == [10, 47, 48, 90]
+    for beam, r in blobs:
+        k = int(np.flatnonzero(hp.beam == beam)[0])
+        d_b = G.highlight_directions("exact")[beam]
+        truth = pos[0] + rot.apply(G.mounting.lever + r * d_b)[0]
+        assert np.linalg.norm(hp.points[k] - truth) <= 0.5 * G.bin_size + 1e-9
+        assert hp.row[k] == int(np.floor(G.range_to_row(r) + 0.5))
+
+
+def test_seabed_only_gives_no_points_and_skip_equals_full_search() -> None:
+    rng = np.random.default_rng(2)
+    n = 40
+    pos = np.column_stack([np.arange(n) * 0.1, np.zeros(n), np.full(n, 15.0)])
+    rot = attitude(np.zeros(n), np.zeros(n), np.zeros(n))
+    imgs = np.stack([_frame(rng, pos[i : i + 1], rot[i : i + 1], 5.0, [(30 + i, 6.5)] if i % 4 == 0 else [])
+                     for i in range(n)])
+    on = G.flat_onset_ranges(pos, rot, np.full(n, 5.0))
+    a = extract(imgs, pos, rot, on, G, HighlightConfig(skip=True))
+    b = extract(imgs, pos, rot, on, G, HighlightConfig(skip=False))
+    assert sorted(np.unique(a.frame).tolist()) == list(range(0, n, 4))
+    assert np.array_equal(a.frame, b.frame) and np.array_equal(a.beam, b.beam)
+    assert np.allclose(a.points, b.points)
+    single = [extract(imgs[i], pos[i : i + 1], rot[i : i + 1], on[i : i + 1], G) for i in range(n)]
+    assert sum(len(s) for s in single) == len(a)
+
+
+def test_gain_and_speckle_robust() -> None:
+    rng = np.random.default_rng(3)
+    pos, rot = np.array([[0.0, 0.0, 15.0]]), attitude(0.0, 0.0, 0.0)
+    on = G.flat_onset_ranges(pos, rot, [5.0])
+    for gain in (0.45, 1.0, 1.1):
+        img = _frame(rng, pos, rot, 5.0, [(20, 6.0)], gain=gain)
+        img[100, 5] = img[250, 60] = img[311, 70] = 255  # isolated speckle pixels
+        hp = extract(img, pos, rot, on, G)
+        assert hp.beam.tolist() == [20]
+        hp2 = extract(img, pos, rot, on, G, HighlightConfig(threshold="percentile"))
+        assert hp2.beam.tolist() == [20]
+    # a threshold from robust statistics follows the gain
+    img = _frame(rng, pos, rot, 5.0, [])
+    t1 = frame_thresholds(img[None], 300, HighlightConfig(min_level=0))[0]
+    t2 = frame_thresholds((img // 2)[None], 300, HighlightConfig(min_level=0))[0]
+    assert 0.35 < t2 / t1 < 0.65
+
+
+def test_box_top_reconstructed_on_its_surface() -> None:
+    scene = Scene(boxes=(Box((8.0, 0.3, 19.6), (1.2, 0.8, 0.8), D(20)),), noise_level=10)
+    rng = np.random.default_rng(4)
+    rot = attitude(0.0, 0.0, 0.0)
+    dists = []
+    for x in np.arange(0.0, 4.0, 0.1):
+        pos = np.array([[x, 0.0, 15.0]])
+        img, _ = render(G, pos[0], rot, scene, rng)
+        hp = extract(img, pos, rot, G.flat_onset_ranges(pos, rot, [5.0]), G)
+        top = np.abs(hp.points[:, 2] - 19.2) < 0.02  # points on the top face (steepest ray hits it)
+        dists.append(surface_distance(hp.points[top], scene))
+    d = np.concatenate(dists)
+    assert d.size > 100
+    assert d.max() < 0.012  # half a range bin + the discretized fan of the renderer
+
+
+def test_rejects_bad_frames_and_attitudes() -> None:
+    pos, img = np.zeros((1, 3)), np.zeros((512, 96), np.uint8)
+    on = np.full((1, 96), 8.0)
+    with pytest.raises(GeometryError, match="pitch"):
+        extract(img, pos, attitude([0.0], [D(89.5)], [0.0]), on, G)
+    with pytest.raises(GeometryError):
+        extract(np.zeros((96, 512), np.uint8), pos, attitude([0.0], [0.0], [0.0]), on, G)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0, 60), st.floats(-180, 180), st.floats(-25, 25), st.floats(-25, 25), st.floats(0.5, 12),
+       st.sampled_from(["exact", "paper"]), st.sampled_from(["float64", "float32"]))
+def test_no_nan_for_any_pose(tilt: float, yaw: float, pitch: float, roll: float, alt: float, mode: str,
+                             dtype: str) -> None:
+    g = SonarGeometry.from_degrees(tilt, 14)
+    rng = np.random.default_rng(5)
+    img = rng.integers(0, 255, size=(512, 96)).astype(np.uint8)
+    pos = np.array([[3e5, -7e5, 40.0]])
+    rot = attitude(D([yaw]), D([pitch]), D([roll]))
+    on = g.flat_onset_ranges(pos, rot, [alt])
+    assert not np.any(np.isnan(on))
+    hp = extract(img, pos, rot, on, g, HighlightConfig(geometry=mode, dtype=dtype, min_run=1))  # type: ignore[arg-type]
+    assert np.all(np.isfinite(hp.points))
