@@ -91,7 +91,8 @@ def _small(quick: bool) -> list[dict[str, Any]]:
     stream = b"".join(frames)
     fmt = formats.get("dsp1760")
     t = best_time(lambda: decode_bytes(stream, fmt, lambda r: None), 3)
-    rows.append({"what": "dsp1760 framer+decode", "items": len(frames), "seconds": t, "per_s": len(frames) / t})
+    rows.append({"what": "dsp1760 framer+decode", "items": len(frames), "seconds": t,
+                 "per_s": len(frames) / t})
     return rows
 
 

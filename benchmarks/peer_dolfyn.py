@@ -17,6 +17,9 @@ from pathlib import Path
 VERSION = "1.3.0"
 VENV = Path(os.environ.get("AUVLINK_CACHE", Path.home() / ".cache" / "auvlink")) / f"dolfyn-{VERSION}"
 
+#: dolfyn 1.3.0 predates numpy 2, scipy 1.14 (cumtrapz removed) and newer xarray
+PINS = ("numpy<2", "scipy<1.14", "xarray<2024.7")
+
 _TIMER = r"""
 import json, sys, time, warnings
 warnings.filterwarnings("ignore")
@@ -45,7 +48,7 @@ def ensure_venv() -> tuple[bool, str]:
     try:
         subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True, capture_output=True)
         subprocess.run(
-            [str(_python()), "-m", "pip", "install", "-q", f"dolfyn=={VERSION}", "numpy<2", "scipy<1.14", "xarray<2024.7"],
+            [str(_python()), "-m", "pip", "install", "-q", f"dolfyn=={VERSION}", *PINS],
             check=True, capture_output=True, timeout=900,
         )
     except (subprocess.SubprocessError, OSError) as exc:

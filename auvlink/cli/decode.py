@@ -16,7 +16,6 @@ from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import dumps
 
 
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", type=Path, help="the file to decode (a raw capture of the wire format)")
     p.add_argument("--format", "-f", required=True, choices=formats.names(), help="wire format of FILE")

@@ -90,7 +90,7 @@ def decode_file_bulk(data: bytes) -> Pd0Batch:
     found = find_ensembles(data)
     buf = np.frombuffer(data, dtype=np.uint8)
     groups: dict[bytes, list[int]] = {}
-    for i, (start, n) in enumerate(found):
+    for i, (start, _n) in enumerate(found):
         ntypes = int(buf[start + 5])
         sig = bytes(buf[start + 2 : start + 6 + 2 * ntypes])
         groups.setdefault(sig, []).append(i)
@@ -119,8 +119,8 @@ def decode_file_bulk(data: bytes) -> Pd0Batch:
                 b = block
                 ens[idx] = _u16(b, off + 2) + (b[:, off + 11].astype(np.int64) << 16)
                 hms = b[:, off + 7].astype(np.int64) * 3600 + b[:, off + 8] * 60 + b[:, off + 9]
-                res["time"][idx] = _rtc_epoch(b[:, off + 4].astype(np.int64), b[:, off + 5].astype(np.int64),
-                                              b[:, off + 6].astype(np.int64), hms, b[:, off + 10].astype(np.int64))
+                ymd = [b[:, off + k].astype(np.int64) for k in (4, 5, 6)]
+                res["time"][idx] = _rtc_epoch(*ymd, hms, b[:, off + 10].astype(np.int64))
                 res["heading"][idx] = np.deg2rad(_u16(b, off + 18) * 0.01)
                 res["pitch"][idx] = np.deg2rad(_i16(b, off + 20) * 0.01)
                 res["roll"][idx] = np.deg2rad(_i16(b, off + 22) * 0.01)

@@ -1,0 +1,177 @@
+"""Simulated sonar frames/s (512 bins x 96 beams, uint8 with speckle) and the cost of K rays per beam.
+
+Run: ``auvlink bench sim --out DIR`` (or ``python benchmarks/bench_sim.py --out DIR [--full]``).
+
+- Frames of the default scene's survey at 10 fps, split into frames with an object in view and
+  frames that see only the (sloped, 2 cm rough) seabed; frames/s for each culling mode (``rays``:
+  one raycasting scene, only rays that can reach an object's bounding sphere are cast; ``objects``:
+  one scene per object; ``none``: every ray cast at every object) at K = 32, best of the repeats.
+- Also a flat seabed without roughness (the analytic plane alone).
+- K sweep (8, 16, 32, 64) against a reference at K = 512: frames/s, the seabed-onset error on a flat
+  seabed (first return per beam against the exact range, in bins; the steepest ray is always cast,
+  so it is 0 or 1 by construction) and the highlight error (per beam, nearest object return against
+  the reference, m) that the highlight extension inherits.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from _common import best_time, table, write_json
+from scipy.spatial.transform import Rotation
+
+from auvlink.sim.scene import Scene, load_default_scene
+from auvlink.sim.sonar_render import OBJECT, SonarRenderer
+from auvlink.sim.trajectory import LawnmowerTrajectory
+
+
+def _frames(scene: Scene, n: int) -> dict[str, tuple[np.ndarray, Rotation]]:
+    """Poses of up to ``n`` survey frames with an object in view, and ``n`` without."""
+    tr = LawnmowerTrajectory.from_scene(scene)
+    pose = tr.true_pose(np.arange(0.0, tr.duration, 1.0 / scene.sonar.fps))
+    probe = SonarRenderer(scene, cull="none", speckle=False)
+    mats = pose.rotation().as_matrix()
+    seen = np.array([(probe.trace_matrix(p, m).kind == OBJECT).any()
+                     for p, m in zip(pose.position, mats, strict=True)])
+    out = {}
+    for name, mask in (("objects in view", seen), ("seabed only", ~seen)):
+        idx = np.flatnonzero(mask)[:n]
+        out[name] = (pose.position[idx], Rotation.from_matrix(mats[idx]))
+    return out
+
+
+def _fps(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation], repeat: int) -> float:
+    """Frames/s, wall clock, best of ``repeat`` passes."""
+    pos, rot = frames
+    t = best_time(lambda: sum(1 for _ in rd.render_sequence(pos, rot, seed=1)), repeat)
+    return len(pos) / t
+
+
+def _fps_cpu(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation], repeat: int) -> float:
+    """Frames/s of process CPU time (all threads), best of ``repeat`` passes: what the machine could
+    do if this process had its cores to itself (other jobs share them while the benchmark runs)."""
+    pos, rot = frames
+    best = float("inf")
+    for _ in range(max(1, repeat)):
+        c0 = time.process_time()
+        sum(1 for _ in rd.render_sequence(pos, rot, seed=1))
+        best = min(best, time.process_time() - c0)
+    return len(pos) / best
+
+
+def _stage_us(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation]) -> tuple[float, float]:
+    """Mean microseconds per frame in ray tracing and in image forming (returns, speckle, quantize)."""
+    pos, rot = frames
+    mats = rot.as_matrix()
+    t0 = time.perf_counter()
+    hits = [rd.trace_matrix(p, m) for p, m in zip(pos, mats, strict=True)]
+    t1 = time.perf_counter()
+    rng = np.random.default_rng(0)
+    for h in hits:
+        rd.image(h, rng)
+    t2 = time.perf_counter()
+    return (t1 - t0) / len(pos) * 1e6, (t2 - t1) / len(pos) * 1e6
+
+
+def _onset_error_bins(k: int) -> float:
+    scene = load_default_scene()
+    scene = replace(scene, objects=(), seabed=replace(scene.seabed, slope_deg=0.0, roughness=0.0),
+                    sonar=replace(scene.sonar, lever_arm=(0.0, 0.0, 0.0)))
+    rd = SonarRenderer(scene, rays_per_beam=k, speckle=False)
+    alt = scene.survey.altitude
+    img = rd.render(np.array([0.0, 0.0, scene.seabed.depth - alt]), 0.0, 0.0, 0.0)
+    g = rd.geometry
+    t, s = g.tilt, g.spread
+    exact = alt / (math.sin(t) * math.cos(s / 2) * np.cos(g.azimuth) + math.cos(t) * math.sin(s / 2))
+    first = (img > 0).argmax(axis=0)
+    return float(np.abs(first - g.bin_of_range(exact)).mean())
+
+
+def _nearest_object(rd: SonarRenderer, pos: np.ndarray, mats: np.ndarray) -> np.ndarray:
+    """(frames, beams) nearest object-return range, nan where the beam sees no object."""
+    out = np.full((len(pos), rd.geometry.n_beams), np.nan)
+    for i, (p, m) in enumerate(zip(pos, mats, strict=True)):
+        h = rd.trace_matrix(p, m)
+        r = np.where(h.kind == OBJECT, h.range, np.inf).reshape(-1, rd.geometry.n_beams).min(axis=0)
+        out[i] = np.where(np.isfinite(r), r, np.nan)
+    return out
+
+
+def _k_sweep(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]],
+             repeat: int) -> list[dict[str, Any]]:
+    pos, rot = frames["objects in view"]
+    mats = rot.as_matrix()
+    ref = _nearest_object(SonarRenderer(scene, rays_per_beam=512, speckle=False), pos, mats)
+    rows = []
+    for k in (8, 16, 32, 64):
+        rd = SonarRenderer(scene, rays_per_beam=k)
+        near = _nearest_object(rd, pos, mats)
+        both = np.isfinite(ref) & np.isfinite(near)
+        rows.append({
+            "K": k, "rays": rd.geometry.n_rays,
+            "fps_objects": _fps(rd, frames["objects in view"], repeat),
+            "fps_seabed": _fps(rd, frames["seabed only"], repeat),
+            "onset_err_bins": _onset_error_bins(k),
+            "highlight_err_m": float(np.abs(near - ref)[both].mean()),
+            "beams_missed": float((np.isfinite(ref) & ~np.isfinite(near)).sum()
+                                  / max(1, np.isfinite(ref).sum())),
+        })
+    return rows
+
+
+def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    load_before = os.getloadavg()
+    scene = load_default_scene()
+    n, repeat = (150, 3) if quick else (600, 5)
+    frames = _frames(scene, n)
+    flat = replace(scene, seabed=replace(scene.seabed, slope_deg=0.0, roughness=0.0))
+    rows = []
+    for view, fr in frames.items():
+        for cull in ("rays", "objects", "none"):
+            rd = SonarRenderer(scene, cull=cull)
+            trace_us, image_us = _stage_us(rd, fr)
+            rows.append({"frames": view, "seabed": "sloped rough", "cull": cull, "n": len(fr[0]),
+                         "fps": _fps(rd, fr, repeat), "fps_cpu": _fps_cpu(rd, fr, repeat),
+                         "trace_us": trace_us, "image_us": image_us})
+    rd_flat = SonarRenderer(replace(flat, objects=()))
+    trace_us, image_us = _stage_us(rd_flat, frames["seabed only"])
+    rows.append({"frames": "seabed only", "seabed": "flat", "cull": "rays",
+                 "n": len(frames["seabed only"][0]), "fps": _fps(rd_flat, frames["seabed only"], repeat),
+                 "fps_cpu": _fps_cpu(rd_flat, frames["seabed only"], repeat),
+                 "trace_us": trace_us, "image_us": image_us})
+    print(table(rows, ["frames", "seabed", "cull", "n", "fps", "fps_cpu", "trace_us", "image_us"]))
+    sweep = _k_sweep(scene, frames, repeat)
+    print()
+    print(table(sweep, ["K", "rays", "fps_objects", "fps_seabed", "onset_err_bins", "highlight_err_m",
+                        "beams_missed"]))
+    k32 = {r["frames"]: r for r in rows if r["cull"] == "rays" and r["seabed"] == "sloped rough"}
+    result = {
+        "rows": rows, "k_sweep": sweep, "goal_fps": 400.0,
+        "fps_k32_objects": k32["objects in view"]["fps"], "fps_k32_seabed": k32["seabed only"]["fps"],
+        "fps_cpu_k32_objects": k32["objects in view"]["fps_cpu"],
+        "fps_cpu_k32_seabed": k32["seabed only"]["fps_cpu"],
+        "loadavg_before": load_before, "loadavg_after": os.getloadavg(),
+        "elapsed_s": time.perf_counter() - t0,
+    }
+    print(f"\nK=32, cull=rays: {result['fps_k32_objects']:.0f} frames/s with objects in view, "
+          f"{result['fps_k32_seabed']:.0f} seabed only (goal 400); per CPU time "
+          f"{result['fps_cpu_k32_objects']:.0f} and {result['fps_cpu_k32_seabed']:.0f}; "
+          f"load average {load_before[0]:.1f}")
+    write_json(out_dir, "sim", result)
+    return result
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--out", type=Path, default=Path("bench-out"))
+    ap.add_argument("--full", action="store_true")
+    a = ap.parse_args()
+    run(quick=not a.full, out_dir=a.out)
