@@ -1,8 +1,9 @@
 """A driver = transport + framer + codec. It yields timestamped :class:`~auvlink.records.Sample`.
 
-Every raw frame goes to the driver's listeners (the mission-log writer is one) *before* it is
-decoded, so a frame that fails to decode is still recorded. A frame that fails to decode is
-counted and skipped; the next good frame is kept.
+Every raw frame goes to the driver's raw listeners (the mission-log writer is one) whether or not
+it decodes, so a frame that fails to decode is still recorded; a listener added with
+``sensor_time=True`` also gets the frame's sensor time (``t_sensor_ns=``, None when unknown).
+A frame that fails to decode is counted and skipped; the next good frame is kept.
 
     with Driver("dvl", "pd0", "/dev/ttyUSB0?baudrate=115200") as dvl:
         for sample in dvl.samples(duration=10.0):
@@ -47,12 +48,13 @@ class Driver:
         self.transport = transport_class(transport)(transport) if isinstance(transport, str) else transport
         self.framer = self.format.framer()
         self.stats = DriverStats()
-        self._raw_listeners: list[RawListener] = []
+        self._raw_listeners: list[tuple[Callable[..., None], bool]] = []
         self._sample_listeners: list[SampleListener] = []
 
     # -- listeners ------------------------------------------------------------------------
-    def add_raw_listener(self, listener: RawListener) -> None:
-        self._raw_listeners.append(listener)
+    def add_raw_listener(self, listener: Callable[..., None], sensor_time: bool = False) -> None:
+        """``listener(device, format, t_host_ns, raw)`` (+ ``t_sensor_ns=`` with ``sensor_time``)."""
+        self._raw_listeners.append((listener, sensor_time))
 
     def add_listener(self, listener: SampleListener) -> None:
         self._sample_listeners.append(listener)
@@ -84,9 +86,15 @@ class Driver:
         """Hand raw frames to listeners, decode them, and return the good samples."""
         out: list[Sample] = []
         for raw in frames:
-            for raw_listener in self._raw_listeners:
-                raw_listener(self.name, self.format.name, t_host_ns, raw)
             sample = self.decode_frame(raw, t_host_ns)
+            if self._raw_listeners:
+                t_sensor = None if sample is None or sample.t_sensor is None else sample.t_sensor
+                t_sensor_ns = None if t_sensor is None else round(t_sensor * 1e9)
+                for raw_listener, with_time in self._raw_listeners:
+                    if with_time:
+                        raw_listener(self.name, self.format.name, t_host_ns, raw, t_sensor_ns=t_sensor_ns)
+                    else:
+                        raw_listener(self.name, self.format.name, t_host_ns, raw)
             if sample is not None:
                 out.append(sample)
                 for listener in self._sample_listeners:
@@ -101,6 +109,10 @@ class Driver:
         except (DecodeError, AuvlinkError, ValueError) as exc:
             self.stats.decode_errors += 1
             self.stats.last_error = str(exc)
+            return None
+        except Exception as exc:  # a codec bug on hostile bytes must not stop the port: count it
+            self.stats.decode_errors += 1
+            self.stats.last_error = f"{type(exc).__name__}: {exc}"
             return None
         self.stats.samples += 1
         return Sample(

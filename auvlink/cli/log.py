@@ -1,0 +1,89 @@
+"""``auvlink log info|export|import``: inspect, export and import mission logs.
+
+    auvlink log info LOG.mcap [--json]
+    auvlink log export LOG.mcap --out DIR [--sonar-every N] [--max-sonar N] [--channels a,b]
+    auvlink log import CAPTURE.bin --format FMT --out LOG.mcap [--rate HZ] [--device NAME]
+    auvlink log import CANLOG.asc|.blf --out LOG.mcap [--device NAME]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from auvlink.jsonutil import to_jsonable
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="log_command", metavar="ACTION", required=True)
+    info = sub.add_parser("info", help="duration, per channel count, rate, gaps, decode errors, metadata")
+    info.add_argument("log")
+    info.add_argument("--json", action="store_true", help="print the JSON form (duration_s, channels, ...)")
+    info.add_argument("--no-decode", action="store_true", help="skip decoding (no decode-error counts)")
+    info.add_argument("--gap-factor", type=float, default=3.0, help="a gap is > K x the median period")
+    exp = sub.add_parser("export", help="navigation as CSV, sonar frames as fan-shaped PNG images")
+    exp.add_argument("log")
+    exp.add_argument("--out", required=True, help="output folder")
+    exp.add_argument("--channels", default=None, help="comma-separated channel names (default: all)")
+    exp.add_argument("--sonar-every", type=int, default=1, help="export every N-th sonar frame")
+    exp.add_argument("--max-sonar", type=int, default=None, help="at most N sonar frames per channel")
+    exp.add_argument("--no-png", action="store_true", help="CSV only")
+    imp = sub.add_parser("import", help="a python-can log or a raw serial capture -> a mission log")
+    imp.add_argument("file")
+    imp.add_argument("--out", required=True, help="mission log to write (.mcap)")
+    imp.add_argument("--format", default=None, help="wire format of a raw capture (pd0, dsp1760, ...)")
+    imp.add_argument("--device", default=None, help="channel name (default: the format, or 'can')")
+    imp.add_argument("--rate", type=float, default=None, help="synthetic frame rate in Hz for a raw capture")
+    imp.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
+
+
+def _info(args: argparse.Namespace) -> int:
+    from logs_format.info import format_info, log_info
+
+    info = log_info(args.log, decode=not args.no_decode, gap_factor=args.gap_factor)
+    if args.json:
+        print(json.dumps(to_jsonable(info), indent=2, allow_nan=False))
+    else:
+        print(format_info(info))
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from logs_format.export import export_log
+
+    channels = [c for c in args.channels.split(",") if c] if args.channels else None
+    result = export_log(args.log, args.out, channels=channels, sonar_every=args.sonar_every,
+                        max_sonar_frames=args.max_sonar, png=not args.no_png)
+    for name, rows in result.csv_rows.items():
+        print(f"  {name}.csv: {rows} rows")
+    for name, n in result.png_frames.items():
+        print(f"  {name}/: {n} PNG frames")
+    if result.loss != "complete":
+        print(f"  log: {result.loss}", file=sys.stderr)
+    return 0
+
+
+def _import(args: argparse.Namespace) -> int:
+    from logs_format.importers import import_can_log, import_serial_capture, is_can_log
+    from logs_format.profile import LogError
+
+    if not Path(args.file).is_file():
+        raise LogError(f"no such file: {args.file}")
+    if args.format is None:
+        if not is_can_log(args.file):
+            raise LogError(f"{args.file}: give --format FMT for a raw capture (or a python-can log file)")
+        result = import_can_log(args.file, args.out, device=args.device or "can",
+                                compression=args.compression)
+    else:
+        result = import_serial_capture(args.file, args.format, args.out, device=args.device,
+                                       rate_hz=args.rate, compression=args.compression)
+    if not result.frames:
+        raise LogError(f"{args.file}: no whole frame found (is --format right?)")
+    print(f"{result.out}: {result.frames} frames" + (f", {result.skipped} skipped" if result.skipped else ""))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    return {"info": _info, "export": _export, "import": _import}[args.log_command](args)

@@ -1,0 +1,110 @@
+"""``auvlink record CONFIG.toml --out LOG.mcap [--duration S]``: the ports of a config -> a mission log.
+
+One thread per device reads its driver; every raw frame goes to the log writer (no processing
+beyond the framer). SIGINT / SIGTERM stop the readers, write the last chunk and the summary, and
+close the log cleanly. At the end, one line per device: frames, bytes, decode errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+import time
+from types import FrameType
+from typing import Any
+
+from auvlink.config import load_config
+from auvlink.driver import Driver
+from auvlink.errors import AuvlinkError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("config", help="vehicle configuration (TOML: [[devices]] name, format, url, ...)")
+    parser.add_argument("--out", required=True, help="mission log to write (.mcap)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="stop after S seconds (default: until Ctrl-C)")
+    parser.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
+    parser.add_argument("--flush-interval", type=float, default=1.0,
+                        help="close a chunk at least every S seconds (what a crash can lose)")
+    parser.add_argument("--quiet", action="store_true", help="no summary at the end")
+
+
+def _reader(driver: Driver, stop: threading.Event, failures: dict[str, str]) -> None:
+    try:
+        while not stop.is_set():
+            driver.read(timeout=0.1)
+    except AuvlinkError as exc:
+        failures[driver.name] = str(exc)
+
+
+def record(config_path: str, out: str, duration: float | None = None, *, compression: str = "zstd",
+           flush_interval: float = 1.0, stop: threading.Event | None = None) -> dict[str, Any]:
+    """Record until ``duration`` s passed or ``stop`` is set; returns per-device counters."""
+    from logs_format.writer import MissionLogWriter
+
+    config = load_config(config_path)
+    stop = stop or threading.Event()
+    drivers = [Driver(d.name, d.format, d.url) for d in config.devices]
+    opened: list[Driver] = []
+    failures: dict[str, str] = {}
+    threads: list[threading.Thread] = []
+    t0 = time.monotonic()
+    with MissionLogWriter(out, compression=compression, flush_interval=flush_interval) as log:
+        log.add_vehicle_config(config)
+        try:
+            for drv in drivers:
+                drv.open()
+                opened.append(drv)
+                drv.add_raw_listener(log, sensor_time=True)
+            for drv in opened:
+                t = threading.Thread(target=_reader, args=(drv, stop, failures), name=f"record-{drv.name}")
+                t.start()
+                threads.append(t)
+            end = None if duration is None else t0 + duration
+            while not stop.is_set() and (end is None or time.monotonic() < end):
+                if len(failures) == len(opened):
+                    break
+                stop.wait(0.1 if end is None else max(0.0, min(0.1, end - time.monotonic())))
+        finally:
+            stop.set()
+            for t in threads:
+                t.join()
+            for drv in opened:
+                drv.close()
+        stats = log.stats()
+    elapsed = time.monotonic() - t0
+    devices = {}
+    for drv in drivers:
+        ch = stats.get(drv.name)
+        devices[drv.name] = {"format": drv.format.name, "frames": ch.frames if ch else 0,
+                             "bytes": ch.bytes if ch else 0, "decode_errors": drv.stats.decode_errors,
+                             "failure": failures.get(drv.name, "")}
+    return {"out": out, "seconds": elapsed, "devices": devices}
+
+
+def run(args: argparse.Namespace) -> int:
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        result = record(args.config, args.out, args.duration, compression=args.compression,
+                        flush_interval=args.flush_interval, stop=stop)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    if not args.quiet:
+        print(f"{result['out']}: {result['seconds']:.1f} s")
+        for name, d in result["devices"].items():
+            line = f"  {name:<12} {d['format']:<9} {d['frames']:>9} frames {d['bytes']:>12} bytes " \
+                   f"{d['decode_errors']:>6} decode errors"
+            print(line + (f"  STOPPED: {d['failure']}" if d["failure"] else ""))
+    failed = [n for n, d in result["devices"].items() if d["failure"]]
+    if failed:
+        print(f"auvlink: error: device(s) stopped early: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,133 @@
+"""Open one chunk: check its CRC, decompress it, and split it into schemas, channels and messages.
+
+Messages are cut out of the decompressed buffer with ``struct.unpack_from`` (no per-message
+stream objects): this is the hot path of replay.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass, field
+from io import BytesIO
+from typing import BinaryIO
+
+import lz4.frame
+import zstandard
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
+from mcap.records import Channel, Schema
+
+from logs_format.profile import CH_DEVICE, CH_FORMAT
+from logs_format.scan import ChunkRef
+
+_REC = struct.Struct("<BQ")
+_MSG_HEAD = struct.Struct("<HIQQ")
+_OP_MESSAGE = int(Opcode.MESSAGE)
+_OP_CHANNEL = int(Opcode.CHANNEL)
+_OP_SCHEMA = int(Opcode.SCHEMA)
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelInfo:
+    """One channel of a log: a device (raw wire frames) or a decoded JSON stream."""
+
+    id: int
+    topic: str
+    message_encoding: str
+    schema_name: str
+    schema_encoding: str
+    metadata: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def format(self) -> str | None:
+        """auvlink wire-format name (``"pd0"``), or None for a JSON or foreign channel."""
+        return self.metadata.get(CH_FORMAT)
+
+    @property
+    def device(self) -> str:
+        return self.metadata.get(CH_DEVICE, self.topic)
+
+
+@dataclass(frozen=True, slots=True)
+class LogMessage:
+    """One message: for a device channel, one raw wire frame exactly as received."""
+
+    channel: str  # topic (= device name for raw channels)
+    format: str | None  # auvlink wire-format name, None for non-wire channels
+    log_time_ns: int  # host receive time, UTC ns
+    publish_time_ns: int  # sensor time when the writer knew it, else equal to log_time_ns
+    sequence: int
+    data: bytes
+    channel_id: int
+
+    @property
+    def t_sensor_ns(self) -> int | None:
+        return None if self.publish_time_ns == self.log_time_ns else self.publish_time_ns
+
+
+class BadChunk(Exception):
+    """Internal: a chunk that cannot be opened (CRC, compression, layout)."""
+
+
+class ChunkOpener:
+    """Reads and opens chunks of one file; keeps one decompressor (not thread-safe)."""
+
+    def __init__(self, f: BinaryIO) -> None:
+        self._f = f
+        self._zstd = zstandard.ZstdDecompressor()
+
+    def raw(self, ref: ChunkRef) -> bytes:
+        self._f.seek(ref.data_offset)
+        data = self._f.read(ref.data_length)
+        if len(data) != ref.data_length:
+            raise BadChunk("short read")
+        if ref.compression == "message":
+            return _REC.pack(_OP_MESSAGE, ref.data_length) + data
+        try:
+            if ref.compression == "zstd":
+                out = self._zstd.decompress(data, max_output_size=ref.uncompressed_size)
+            elif ref.compression == "lz4":
+                out = lz4.frame.decompress(data)
+            elif ref.compression == "":
+                out = data
+            else:
+                raise BadChunk(f"unsupported compression {ref.compression!r}")
+        except (zstandard.ZstdError, RuntimeError, ValueError) as exc:
+            raise BadChunk(f"decompression failed: {exc}") from exc
+        if len(out) != ref.uncompressed_size:
+            raise BadChunk("uncompressed size mismatch")
+        if ref.uncompressed_crc and zlib.crc32(out) != ref.uncompressed_crc:
+            raise BadChunk("CRC mismatch")
+        return out
+
+    def open(
+        self, ref: ChunkRef
+    ) -> tuple[list[Schema], list[Channel], list[tuple[int, int, int, int, bytes]]]:
+        """Schemas, channels and messages ``(log_time, publish_time, sequence, channel_id, data)``."""
+        buf = self.raw(ref)
+        schemas: list[Schema] = []
+        channels: list[Channel] = []
+        messages: list[tuple[int, int, int, int, bytes]] = []
+        pos, n = 0, len(buf)
+        unpack_rec, unpack_msg = _REC.unpack_from, _MSG_HEAD.unpack_from
+        try:
+            while pos < n:
+                op, length = unpack_rec(buf, pos)
+                body = pos + 9
+                end = body + length
+                if end > n:
+                    raise BadChunk("record runs past the chunk")
+                if op == _OP_MESSAGE:
+                    cid, seq, log_time, pub_time = unpack_msg(buf, body)
+                    messages.append((log_time, pub_time, seq, cid, buf[body + 22 : end]))
+                elif op == _OP_CHANNEL:
+                    channels.append(Channel.read(ReadDataStream(BytesIO(buf[body:end]))))
+                elif op == _OP_SCHEMA:
+                    schemas.append(Schema.read(ReadDataStream(BytesIO(buf[body:end]))))
+                pos = end
+        except BadChunk:
+            raise
+        except Exception as exc:  # struct.error, UnicodeDecodeError, mcap's EndOfFile, ...
+            raise BadChunk(f"damaged record inside the chunk: {exc}") from exc
+        return schemas, channels, messages
