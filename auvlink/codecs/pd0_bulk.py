@@ -119,8 +119,8 @@ def decode_file_bulk(data: bytes) -> Pd0Batch:
                 b = block
                 ens[idx] = _u16(b, off + 2) + (b[:, off + 11].astype(np.int64) << 16)
                 hms = b[:, off + 7].astype(np.int64) * 3600 + b[:, off + 8] * 60 + b[:, off + 9]
-                ymd = [b[:, off + k].astype(np.int64) for k in (4, 5, 6)]
-                res["time"][idx] = _rtc_epoch(*ymd, hms, b[:, off + 10].astype(np.int64))
+                y, mo, d = (b[:, off + k].astype(np.int64) for k in (4, 5, 6))
+                res["time"][idx] = _rtc_epoch(y, mo, d, hms, b[:, off + 10].astype(np.int64))
                 res["heading"][idx] = np.deg2rad(_u16(b, off + 18) * 0.01)
                 res["pitch"][idx] = np.deg2rad(_i16(b, off + 20) * 0.01)
                 res["roll"][idx] = np.deg2rad(_i16(b, off + 22) * 0.01)
