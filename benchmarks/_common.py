@@ -58,6 +58,17 @@ def table(rows: Sequence[dict[str, Any]], columns: Sequence[str] | None = None) 
     return "\n".join(out)
 
 
+def script_main(run: Callable[..., dict[str, Any]], doc: str | None) -> None:
+    """``python benchmarks/bench_X.py [--out DIR] [--full]``: the command line of every script."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=doc)
+    ap.add_argument("--out", type=Path, default=Path("bench-out"))
+    ap.add_argument("--full", action="store_true", help="the long version")
+    a = ap.parse_args()
+    run(quick=not a.full, out_dir=a.out)
+
+
 def write_json(out_dir: Path, name: str, result: dict[str, Any]) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / f"{name}.json"

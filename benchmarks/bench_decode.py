@@ -7,13 +7,12 @@ codec, per frame and through the bulk (vectorized) path; dolfyn reads the same f
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import best_time, table, write_json
+from _common import best_time, script_main, table, write_json
 
 from auvlink import formats
 from auvlink.decode_file import decode_bytes
@@ -109,8 +108,4 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--out", type=Path, default=Path("bench-out"))
-    ap.add_argument("--full", action="store_true")
-    a = ap.parse_args()
-    run(quick=not a.full, out_dir=a.out)
+    script_main(run, __doc__)

@@ -9,7 +9,6 @@ errors are distances of the reconstructed points to the true object surfaces.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import os
 import time
@@ -21,7 +20,7 @@ from typing import Any
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
-from _common import best_time, table, write_json
+from _common import best_time, script_main, table, write_json
 
 from recon.cluster import dbscan_labels
 from recon.highlight import HighlightConfig, extract
@@ -197,8 +196,4 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--out", type=Path, default=Path("bench-out"))
-    ap.add_argument("--full", action="store_true")
-    a = ap.parse_args()
-    run(quick=not a.full, out_dir=a.out)
+    script_main(run, __doc__)

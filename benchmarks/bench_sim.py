@@ -15,7 +15,6 @@ Run: ``auvlink bench sim --out DIR`` (or ``python benchmarks/bench_sim.py --out 
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import time
@@ -24,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import best_time, table, write_json
+from _common import best_time, script_main, table, write_json
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.scene import Scene, load_default_scene
@@ -170,8 +169,4 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--out", type=Path, default=Path("bench-out"))
-    ap.add_argument("--full", action="store_true")
-    a = ap.parse_args()
-    run(quick=not a.full, out_dir=a.out)
+    script_main(run, __doc__)

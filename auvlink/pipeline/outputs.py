@@ -1,0 +1,42 @@
+"""Write a run's outputs: ``detections.jsonl``, ``cloud.ply``, one PLY per object, ``summary.json``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from auvlink.jsonutil import to_jsonable
+from auvlink.pipeline.process import MissionResult
+from auvlink.pipeline.scoring import score_detections
+
+
+def write_outputs(result: MissionResult, out_dir: Path) -> dict[str, Any]:
+    """Write the files of ARCHITECTURE.md's output folder; returns the summary dict."""
+    from recon.ply import write_ply
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    obj_dir = out_dir / "objects"
+    obj_dir.mkdir(exist_ok=True)
+    lines = []
+    for det in result.detections:
+        name = f"objects/object_{det.id:03d}_{det.class_name}.ply"
+        write_ply(out_dir / name, det.points)
+        lines.append(json.dumps(to_jsonable(det.to_json(name)), allow_nan=False))
+    (out_dir / "detections.jsonl").write_text("".join(line + "\n" for line in lines))
+    cloud = (np.concatenate([d.points for d in result.detections]) if result.detections
+             else np.zeros((0, 3)))
+    write_ply(out_dir / "cloud.ply", cloud)
+    summary = {
+        "log": str(result.log),
+        "detections": len(result.detections),
+        "timings": result.timings,
+        "recon": result.recon_stats,
+        "devices": result.replay_stats,
+        "log_loss": result.loss,
+        "scores": score_detections(result),
+    }
+    (out_dir / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=2, allow_nan=False) + "\n")
+    return summary

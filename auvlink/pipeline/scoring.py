@@ -1,0 +1,65 @@
+"""Detections against a simulated mission's ground truth: detection and classification precision/recall.
+
+A detection matches the nearest unmatched true object whose horizontal distance is at most
+``radius`` (m), greedily by distance. Detection precision = matched / detections, recall =
+matched / true objects; classification counts a match as correct when the classes agree.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from auvlink.pipeline.process import MissionResult
+
+
+def match(det_xy: np.ndarray, truth_xy: np.ndarray, radius: float) -> list[tuple[int, int, float]]:
+    """Greedy nearest matching: (detection index, truth index, distance) pairs."""
+    if det_xy.size == 0 or truth_xy.size == 0:
+        return []
+    d = np.linalg.norm(det_xy[:, None, :] - truth_xy[None, :, :], axis=2)
+    pairs = []
+    used_d: set[int] = set()
+    used_t: set[int] = set()
+    for flat in np.argsort(d, axis=None):
+        i, j = divmod(int(flat), d.shape[1])
+        if d[i, j] > radius:
+            break
+        if i in used_d or j in used_t:
+            continue
+        used_d.add(i)
+        used_t.add(j)
+        pairs.append((i, j, float(d[i, j])))
+    return pairs
+
+
+def score_detections(result: MissionResult, radius: float = 1.0) -> dict[str, Any] | None:
+    """Scores against the truth, or None when the log has no ground truth."""
+    truth = result.setup.truth
+    if not truth:
+        return None
+    dets = result.detections
+    det_xy = np.array([d.position_ned[:2] for d in dets]).reshape(-1, 2)
+    truth_xy = np.array([t.position_ned[:2] for t in truth]).reshape(-1, 2)
+    pairs = match(det_xy, truth_xy, radius)
+    correct = sum(1 for i, j, _ in pairs if dets[i].class_name == truth[j].class_name)
+    n_det, n_truth = len(dets), len(truth)
+    rows = [{"truth_class": truth[j].class_name, "detected_class": dets[i].class_name,
+             "score": dets[i].score, "distance_m": dist, "detection_id": dets[i].id}
+            for i, j, dist in pairs]
+    missed = [truth[j].class_name for j in range(n_truth) if j not in {p[1] for p in pairs}]
+    return {
+        "radius_m": radius,
+        "detections": n_det,
+        "truth_objects": n_truth,
+        "matched": len(pairs),
+        "detection_precision": len(pairs) / n_det if n_det else 0.0,
+        "detection_recall": len(pairs) / n_truth if n_truth else 0.0,
+        "classification_precision": correct / n_det if n_det else 0.0,
+        "classification_recall": correct / n_truth if n_truth else 0.0,
+        "centroid_error_mean_m": float(np.mean([p[2] for p in pairs])) if pairs else None,
+        "matches": rows,
+        "missed": missed,
+        "false_detections": [dets[i].id for i in range(n_det) if i not in {p[0] for p in pairs}],
+    }
