@@ -1,0 +1,192 @@
+"""The simulated vehicle on the wire: measurements -> raw frames through the real encoders, in time order.
+
+Devices (the names of ``examples/virtual_ports.toml``) and what each sends:
+
+========  =========  ================================================================================
+dvl       pd0        one ensemble per ping (:func:`auvlink.sim.dvl.pd0_ensemble`)
+gyro      dsp1760    one 36-byte message per sample, rate mode, sequence modulo 128
+pressure  paro       one ``*0001<psi>`` line per sample, or (``keller``) an F48 initialise request and
+                     answer at t = 0, then per sample an F73 read-P1 request and, ``keller_latency_s``
+                     later, its response (as a tap on the RS-485 line sees them)
+can       can        DVL_BT_VELOCITY, DVL_ALTITUDE (per ping), GYRO_RATE, ATTITUDE (``can_hz``),
+                     PRESSURE, DEPTH (per pressure sample): 16-byte raw frames of the navigation DBC
+sonar     didson     one frame per sonar pose: :class:`~auvlink.sim.sonar_render.SonarRenderer` image,
+                     the scene's window, the frame time (us) and the head's heading/pitch/roll
+========  =========  ================================================================================
+
+No byte is built by hand: every frame is ``encode(build(...))`` of its codec (CAN records are
+built with every signal given, so :func:`auvlink.codecs.can_nav.encode` alone quantizes them).
+
+An :data:`Event` is ``(t_ns, sub-stream, index, device, raw, t_sensor_ns)``: host time = mission
+start + t, the sensor time where the format has a clock. :func:`block_events` returns the events
+whose time falls in ``[t0, t1)``, sorted by ``(t_ns, sub-stream, index)``; since every event's time
+and bytes depend only on its own index, any split of a run into blocks gives the same sequence.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from auvlink.codecs import can_nav, didson, dsp1760, keller, paro
+from auvlink.codecs import pd0 as pd0_codec
+from auvlink.sim.dvl import pd0_ensemble
+from auvlink.sim.sensors import Measurements, pressure_to_depth
+from auvlink.sim.sonar_render import SonarRenderer
+
+#: device name -> wire format (the pressure device is ``paro`` or ``keller`` per the settings)
+DEVICES = ("dvl", "gyro", "pressure", "can", "sonar")
+Event = tuple[int, int, int, str, bytes, int | None]
+Encoder = Callable[[Measurements, int], tuple[bytes, int | None]]
+
+
+def device_formats(m: Measurements) -> dict[str, str]:
+    return {"dvl": "pd0", "gyro": "dsp1760", "pressure": m.sensors.pressure, "can": "can", "sonar": "didson"}
+
+
+def _ns(x: float) -> int:
+    return round(x * 1e9)
+
+
+@functools.cache
+def _can_id(name: str) -> int:
+    return int(can_nav.database().get_message_by_name(name).frame_id)
+
+
+def _can(name: str, **signals: float) -> bytes:
+    return can_nav.encode(can_nav.CanNavRecord(_can_id(name), name, signals))
+
+
+# --- per-sample encoders: (measurements, index) -> (raw, sensor time ns) -------------------------
+def _dvl(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    start = m.sensors.start_ns * 1e-9
+    ens = pd0_ensemble(m.dvl, k, start, m.sensors.sound_speed)
+    t = pd0_codec.sensor_time(ens)
+    return pd0_codec.encode(ens), None if t is None else _ns(t)
+
+
+def _gyro(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    g = m.gyro
+    msg = dsp1760.build(g.rate[k], g.accel[k], sequence=k, temperature_c=g.temperature_c)
+    return dsp1760.encode(msg), None
+
+
+def _paro(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    return paro.encode(paro.build_reading(float(m.pressure.pressure_pa[k]))), None
+
+
+def _keller_init_request(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    return keller.encode(keller.KellerInitRequest(m.sensors.keller_address)), None
+
+
+def _keller_init_response(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    return keller.encode(keller.KellerInitResponse(m.sensors.keller_address)), None
+
+
+def _keller_request(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    return keller.encode(keller.KellerReadRequest(m.sensors.keller_address, keller.CH_P1)), None
+
+
+def _keller_response(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    resp = keller.build_pressure_response(m.sensors.keller_address, float(m.pressure.pressure_pa[k]))
+    return keller.encode(resp), None
+
+
+def _can_gyro(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    g = m.gyro
+    j = min(len(g.t) - 1, round(float(m.ahrs.t[k]) * m.sensors.gyro_hz))
+    return _can("GYRO_RATE", rate_z=float(g.rate[j, 2]), counter=k % 256, valid=1), None
+
+
+def _can_attitude(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    a = m.ahrs
+    heading = min(float(a.heading[k]), 2.0 * math.pi)
+    return _can("ATTITUDE", heading=heading, pitch=float(a.pitch[k]), roll=float(a.roll[k]),
+                counter=k % 256, valid=1), None
+
+
+def _can_dvl_velocity(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    d = m.dvl
+    if not d.valid[k]:
+        return _can("DVL_BT_VELOCITY", vx=0.0, vy=0.0, vz=0.0, counter=k % 256, valid=0), None
+    vx, vy, vz = (float(v) for v in d.velocity_body[k])
+    return _can("DVL_BT_VELOCITY", vx=vx, vy=vy, vz=vz, counter=k % 256, valid=1), None
+
+
+def _can_dvl_altitude(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    d = m.dvl
+    ok = bool(d.valid[k])
+    return _can("DVL_ALTITUDE", altitude=float(d.altitude[k]) if ok else 0.0,
+                fom=m.noise.dvl.velocity_sigma, counter=k % 256, valid=int(ok)), None
+
+
+def _can_pressure(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    p = m.pressure
+    return _can("PRESSURE", pressure=float(p.pressure_pa[k]), temperature_c=p.temperature_c,
+                counter=k % 256), None
+
+
+def _can_depth(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    depth = float(pressure_to_depth(m.pressure.pressure_pa[k]))
+    return _can("DEPTH", depth=depth, counter=k % 256, valid=1), None
+
+
+def _substreams(m: Measurements) -> list[tuple[str, np.ndarray, Encoder]]:
+    """``(device, emission times, encoder)`` in tie-break order (the sonar is handled apart)."""
+    p = m.pressure.t
+    pressure: list[tuple[str, np.ndarray, Encoder]]
+    if m.sensors.pressure == "keller":  # power-up: F48 initialise (request, answer) before the reads
+        t_init = np.zeros(1)
+        pressure = [("pressure", t_init, _keller_init_request), ("pressure", t_init, _keller_init_response),
+                    ("pressure", p, _keller_request),
+                    ("pressure", p + m.sensors.keller_latency_s, _keller_response)]
+    else:
+        pressure = [("pressure", p, _paro)]
+    return [
+        ("gyro", m.gyro.t, _gyro), ("dvl", m.dvl.t, _dvl), *pressure,
+        ("can", m.ahrs.t, _can_gyro), ("can", m.ahrs.t, _can_attitude),
+        ("can", m.dvl.t, _can_dvl_velocity), ("can", m.dvl.t, _can_dvl_altitude),
+        ("can", p, _can_pressure), ("can", p, _can_depth),
+    ]
+
+
+def sonar_frame(m: Measurements, k: int, image: np.ndarray, window_start: float,
+                window_length: float) -> tuple[bytes, int | None]:
+    s = m.sonar
+    frame = didson.build(image, window_start, window_length, m.sensors.sound_speed, k,
+                         m.sensors.start_ns * 1e-9 + float(s.t[k]), float(s.heading[k]),
+                         float(s.pitch[k]), float(s.roll[k]))
+    t = didson.sensor_time(frame)
+    return didson.encode(frame), None if t is None else _ns(t)
+
+
+def block_events(m: Measurements, t0: float, t1: float, renderer: SonarRenderer | None) -> list[Event]:
+    """Every event with mission time in ``[t0, t1)``, sorted (see the module docstring).
+
+    ``renderer`` draws the sonar frames (None: no sonar device).
+    """
+    start = m.sensors.start_ns
+    out: list[Event] = []
+    subs = _substreams(m)
+    for order, (device, times, enc) in enumerate(subs):
+        i0, i1 = np.searchsorted(times, [t0, t1], side="left")
+        for k in range(int(i0), int(i1)):
+            raw, t_sensor = enc(m, k)
+            out.append((start + _ns(float(times[k])), order, k, device, raw, t_sensor))
+    if renderer is not None:
+        s = m.sonar
+        i0, i1 = (int(i) for i in np.searchsorted(s.t, [t0, t1], side="left"))
+        if i1 > i0:
+            from scipy.spatial.transform import Rotation
+
+            sc = renderer.scene.sonar
+            frames = renderer.render_sequence(s.position[i0:i1], Rotation.from_matrix(s.r_wb[i0:i1]),
+                                              m.seed, first_frame=i0)
+            for k, image in zip(range(i0, i1), frames, strict=True):
+                raw, t_sensor = sonar_frame(m, k, image, sc.window_start, sc.window_length)
+                out.append((start + _ns(float(s.t[k])), len(subs), k, "sonar", raw, t_sensor))
+    out.sort(key=lambda e: (e[0], e[1], e[2]))
+    return out

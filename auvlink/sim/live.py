@@ -1,0 +1,261 @@
+"""The simulated vehicle live: its devices on virtual ports named by a vehicle configuration file.
+
+    auvlink sim --scene S.toml --live examples/virtual_ports.toml [--speed X] [--duration S]
+
+The configuration is the one ``auvlink record`` and ``auvlink live`` read, unchanged. Each of its
+devices is matched to a simulated instrument by its wire format (``pd0`` DVL, ``dsp1760`` gyro,
+``paro`` or ``keller`` pressure, ``can`` navigation bus, ``didson`` sonar) and served where its URL
+points:
+
+- a serial URL (``/tmp/auvlink/dvl?baudrate=115200``): a :class:`~auvlink.virtual.PtyPair` whose
+  slave is symlinked at that path (parent folders created). Lossy like a UART: bytes nobody reads
+  are dropped once the kernel buffer is full;
+- ``can://slcan/<path>``: an :class:`~auvlink.virtual_slcan.SlcanAdapter` (a USB-CAN adapter
+  emulated on a pty symlinked at ``<path>``); any other python-can interface (``virtual``,
+  ``socketcan``) is opened as a bus and sent to;
+- ``tcp://host:port``: a TCP server there (the reader connects as a client).
+
+The configuration also describes the vehicle, so it wins over the scene: the DVL and pressure
+lever arms, the DVL mounting angles, the sonar's lever arm, tilt, spread and window, and the
+pressure sensor's kind come from it. Frames go out at ``speed`` x real time (an absolute schedule:
+no drift) for ``duration`` s (default: the survey); :func:`serve` returns when the run ends or
+``stop`` is set, and closes every port (the symlinks are removed).
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from dataclasses import dataclass, field, replace
+from typing import IO, Any
+
+from auvlink.config import DeviceConfig, VehicleConfig
+from auvlink.sim.emit import Event, block_events
+from auvlink.sim.mission import Run, prepare
+from auvlink.sim.noise import NoiseConfig, SimError
+from auvlink.sim.scene import Scene
+from auvlink.sim.settings import SimSettings, settings_for
+
+ROLES = {"pd0": "dvl", "dsp1760": "gyro", "paro": "pressure", "keller": "pressure", "can": "can",
+         "didson": "sonar"}
+BLOCK_S = 1.0
+
+
+@dataclass
+class Port:
+    """One served device: where the reader finds it, and counters."""
+
+    device: str
+    format: str
+    role: str
+    where: str
+    sink: Any = None
+    frames: int = 0
+    bytes: int = 0
+    dropped: int = 0
+
+
+@dataclass
+class LiveResult:
+    seconds: float
+    ports: list[Port] = field(default_factory=list)
+
+
+def match_devices(config: VehicleConfig) -> dict[str, DeviceConfig]:
+    """Simulated role (dvl, gyro, pressure, can, sonar) -> the config's device serving it."""
+    out: dict[str, DeviceConfig] = {}
+    for dev in config.devices:
+        role = ROLES.get(dev.format)
+        if role is None:
+            raise SimError(f"device {dev.name!r}: the simulator does not emit format {dev.format!r} "
+                           f"(it emits {', '.join(ROLES)})")
+        if role in out:
+            raise SimError(f"devices {out[role].name!r} and {dev.name!r} both ask for the simulated {role}")
+        out[role] = dev
+    return out
+
+
+def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[Scene, SimSettings]:
+    """The scene and settings with the vehicle described by ``config`` (mountings, sonar geometry)."""
+    devices = match_devices(config)
+    s = settings.sensors
+    if "dvl" in devices:
+        m = devices["dvl"].mounting
+        s = replace(s, dvl_lever_arm=m.xyz, dvl_rpy_deg=m.rpy_deg)
+    if "pressure" in devices:
+        s = replace(s, pressure=devices["pressure"].format, pressure_lever_arm=devices["pressure"].mounting.xyz)
+    sonar = scene.sonar
+    if "sonar" in devices:
+        sonar = replace(sonar, lever_arm=devices["sonar"].mounting.xyz)
+    if config.sonar is not None:
+        c = config.sonar
+        sonar = replace(sonar, tilt_deg=c.tilt_deg, spread_deg=c.spread_deg, window_start=c.window_start,
+                        window_length=c.window_length)
+    return replace(scene, sonar=sonar), replace(settings, sensors=s)
+
+
+def _serial_path(url: str) -> str:
+    path = url[len("serial://"):] if url.startswith("serial://") else url
+    if "://" in path:
+        raise SimError(f"cannot serve {url!r}: a serial device needs a path (e.g. /tmp/auvlink/dvl)")
+    return path.partition("?")[0]
+
+
+def _open(role: str, dev: DeviceConfig) -> Port:
+    from auvlink.virtual import PtyPair
+
+    port = Port(dev.name, dev.format, role, dev.url)
+    if role == "sonar":
+        from auvlink.transports.tcp import TcpServerTransport, parse_address
+
+        if not dev.url.startswith("tcp://"):
+            raise SimError(f"cannot serve the sonar on {dev.url!r}: use tcp://HOST:PORT")
+        host, p = parse_address(dev.url)
+        port.sink = TcpServerTransport(f"tcp-listen://{host}:{p}").open()
+        port.where = f"tcp://{host}:{p} (listening)"
+    elif role == "can":
+        from auvlink.transports.can_bus import parse_can_url
+
+        interface, channel, options = parse_can_url(dev.url)
+        if interface == "slcan":
+            from auvlink.virtual_slcan import SlcanAdapter
+
+            if not channel:
+                raise SimError(f"cannot serve {dev.url!r}: no slcan channel path")
+            port.sink = SlcanAdapter(channel)
+            port.where = f"slcan adapter on {channel} -> {port.sink.pty.slave_name}"
+        else:
+            import can
+
+            kw = {k: v for k, v in options.items() if k != "sleep_after_open"}
+            port.sink = can.Bus(interface=interface, channel=channel, **kw)
+            port.where = f"python-can {interface} channel {channel}"
+    else:
+        path = _serial_path(dev.url)
+        port.sink = PtyPair(path, lossy=True).open()
+        port.where = f"{path} -> {port.sink.slave_name}"
+    return port
+
+
+def _send(port: Port, raw: bytes) -> None:
+    if port.role == "can":
+        import can
+
+        from auvlink.framing.can_frames import frame_to_message
+
+        try:
+            port.sink.send(frame_to_message(raw, time.time()))
+        except can.CanError:
+            port.dropped += 1
+            return
+    elif port.role == "sonar":
+        before = port.sink.bytes_discarded
+        port.sink.write(raw)
+        if port.sink.bytes_discarded != before:
+            port.dropped += 1
+            return
+    else:
+        sent = port.sink.write(raw)
+        if sent < len(raw):
+            port.dropped += 1
+            return
+    port.frames += 1
+    port.bytes += len(raw)
+
+
+def _close(port: Port) -> None:
+    sink, port.sink = port.sink, None
+    if sink is None:
+        return
+    if port.role == "can":
+        sink.shutdown()
+    else:
+        sink.close()
+
+
+def _producer(run: Run, blocks: queue.Queue[list[Event] | None], stop: threading.Event,
+              halt: threading.Event, errors: list[BaseException], with_sonar: bool) -> None:
+    from auvlink.sim.sonar_render import SonarRenderer
+
+    try:
+        renderer = SonarRenderer(run.scene) if with_sonar else None
+        last = run.duration + run.settings.sensors.keller_latency_s
+        b = 0
+        while not (stop.is_set() or halt.is_set()) and b * BLOCK_S <= last:
+            events = block_events(run.measurements, b * BLOCK_S, (b + 1) * BLOCK_S, renderer)
+            b += 1
+            while not (stop.is_set() or halt.is_set()):
+                try:
+                    blocks.put(events, timeout=0.1)
+                    break
+                except queue.Full:
+                    continue
+    except BaseException as exc:  # handed to the sender, which raises it
+        errors.append(exc)
+    finally:
+        while not halt.is_set():  # the end mark must arrive, or the sender would wait for ever
+            try:
+                blocks.put(None, timeout=0.1)
+                break
+            except queue.Full:
+                continue
+
+
+def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: float | None = None,
+          seed: int | None = None, noise: bool | NoiseConfig | None = None, settings: SimSettings | None = None,
+          stop: threading.Event | None = None, ready: threading.Event | None = None,
+          out: IO[str] | None = None) -> LiveResult:
+    """Serve the simulated devices of ``config`` until the run ends or ``stop`` is set."""
+    if not speed > 0:
+        raise SimError(f"the speed must be > 0, got {speed}")
+    stop = stop or threading.Event()
+    scene, settings = adapt(scene, settings_for(scene) if settings is None else settings, config)
+    run = prepare(scene, seed, duration, settings=settings, noise=noise)
+    devices = match_devices(config)
+    ports: dict[str, Port] = {}
+    blocks: queue.Queue[list[Event] | None] = queue.Queue(maxsize=3)
+    errors: list[BaseException] = []
+    halt = threading.Event()
+    thread = threading.Thread(target=_producer, args=(run, blocks, stop, halt, errors, "sonar" in devices),
+                              name="auvlink-sim-producer", daemon=True)
+    t_start = time.monotonic()
+    try:
+        for role, dev in devices.items():
+            ports[role] = _open(role, dev)
+        if out is not None:
+            print(f"auvlink sim: {scene.source or 'scene'} (seed {run.scene.seed}) live at {speed:g}x real "
+                  f"time for {run.duration:.1f} s; Ctrl-C stops", file=out)
+            for p in ports.values():
+                print(f"  {p.device:<10} {p.format:<8} {p.where}", file=out)
+            out.flush()
+        if ready is not None:
+            ready.set()
+        thread.start()
+        start_ns = run.settings.sensors.start_ns
+        t0 = time.monotonic()
+        while not stop.is_set():
+            try:
+                events = blocks.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            if events is None:
+                break
+            for t_ns, _, _, role, raw, _ in events:
+                delay = t0 + (t_ns - start_ns) * 1e-9 / speed - time.monotonic()
+                if delay > 0 and stop.wait(delay):
+                    break
+                port = ports.get(role)
+                if port is not None:
+                    _send(port, raw)
+        if errors:
+            raise SimError(f"the simulation failed: {errors[0]}") from errors[0]
+    except OSError as exc:
+        raise SimError(f"cannot serve the virtual ports: {exc}") from exc
+    finally:
+        halt.set()
+        if thread.is_alive():
+            thread.join(timeout=5.0)
+        for port in ports.values():
+            _close(port)
+    return LiveResult(time.monotonic() - t_start, list(ports.values()))
