@@ -8,7 +8,8 @@ the gyro and DVL sample times (the span both cover).
 - Heading: the gyro's body rate is turned into a heading rate, psi' = (q sin(roll) + r cos(roll)) /
   cos(pitch) (q = 0 for a single-axis gyro), and integrated: trapezoid for instantaneous rates,
   a plain cumulative sum for delta angles (each the increment since the previous sample). The start
-  value is the DVL heading at the first trajectory time. Between gyro samples the rate is constant.
+  value comes from the DVL compass: the circular mean, over the first ``heading_init_s``, of the DVL
+  heading minus the gyro-integrated heading change (one noisy compass sample would tilt every line). Between gyro samples the rate is constant.
 - Velocity: DVL velocity converted once to FRD (ship/instrument, through the mounting) or NED
   (earth); PD0 bottom track is negated (bottom relative to instrument -> vehicle over ground); the
   lever arm is removed, v_origin = v_dvl - omega x l. During a dropout (invalid samples or a time gap
@@ -106,7 +107,8 @@ class NavConfig:
     gyro_gap_s: float = 1.0  # gyro gaps longer than this flag the poses inside degraded
     depth_gap_s: float = 2.0
     initial_position: tuple[float, float] = (0.0, 0.0)  # north, east at the first pose (m)
-    initial_heading: float | None = None  # rad; None = the DVL heading at the start
+    initial_heading: float | None = None  # rad; None = from the DVL headings (see heading_init_s)
+    heading_init_s: float = 60.0  # s of DVL headings averaged (against the gyro) for the start heading
 
 
 def pressure_to_depth(pressure_pa: ArrayLike, density: float = 1025.0, gravity: float = 9.80665,
@@ -188,10 +190,15 @@ def dead_reckon(dvl: DvlSamples, gyro: GyroSamples, depth: DepthSamples,
     if cfg.initial_heading is not None:
         psi0 = float(cfg.initial_heading)
     else:
-        hok = np.isfinite(heading)
+        hok = np.isfinite(heading) & (tv >= grid[0]) & (tv <= grid[0] + cfg.heading_init_s)
+        if not hok.any():
+            hok = np.isfinite(heading)
         if not hok.any():
             raise NavigationError("no DVL heading to initialise the gyro heading (set initial_heading)")
-        psi0 = float(_interp_angle(np.array([grid[0]]), tv[hok], heading[hok])[0])
+        # the compass is noisy (~0.5 deg), the gyro is not: estimate the constant offset between the
+        # two as the circular mean over the first ``heading_init_s`` of DVL headings
+        offset = heading[hok] - (np.interp(tv[hok], grid, psi) - psi[0])
+        psi0 = float(np.angle(np.mean(np.exp(1j * offset))))
     psi = psi + (psi0 - psi[0])
     pitch_w = np.interp(grid, ta, pitch[att_ok])
     roll_w = np.interp(grid, ta, roll[att_ok])
