@@ -1,0 +1,113 @@
+"""Training-time augmentation of batches of clouds ``(B, N, 3)`` (NED: z down), seeded.
+
+* random yaw about the down axis (the object's heading and the pass direction are unknown),
+* jitter: clipped Gaussian noise per point,
+* point dropout: a random fraction of each cloud (up to ``dropout_max``) replaced by copies of
+  its first point, which leaves a max-pooled network's input set unchanged in size,
+* random scale (isotropic, small): the unit-sphere scaling of a reconstructed cloud is itself noisy,
+* plane cut (first, with probability ``cut_prob``): the points beyond a random vertical plane, a
+  fraction up to ``cut_max`` of the cloud, are replaced by copies of kept points (a pass that saw
+  only part of the object's footprint), and the cloud is scaled back into the unit sphere.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+F32 = npt.NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class AugmentConfig:
+    yaw: bool = True
+    jitter_sigma: float = 0.01
+    jitter_clip: float = 0.03
+    dropout_max: float = 0.5
+    scale: tuple[float, float] = (0.9, 1.1)
+    cut_prob: float = 0.0
+    cut_max: float = 0.4
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> AugmentConfig:
+        kw: dict[str, Any] = {k: (tuple(d[k]) if isinstance(d[k], list) else d[k])
+                              for k in cls.__dataclass_fields__ if k in d}
+        return cls(**kw)
+
+
+def random_yaw(points: F32, rng: np.random.Generator) -> F32:
+    """Rotate each cloud by a uniform random angle about the z (down) axis."""
+    a = rng.uniform(0.0, 2 * np.pi, size=len(points))
+    c, s = np.cos(a), np.sin(a)
+    rot = np.zeros((len(points), 3, 3), dtype=np.float32)
+    rot[:, 0, 0], rot[:, 0, 1], rot[:, 1, 0], rot[:, 1, 1], rot[:, 2, 2] = c, -s, s, c, 1.0
+    return np.einsum("bnj,bij->bni", points, rot).astype(np.float32)
+
+
+def jitter(points: F32, rng: np.random.Generator, sigma: float = 0.01, clip: float = 0.03) -> F32:
+    """Add Gaussian noise of ``sigma`` clipped to ``+-clip`` to every coordinate."""
+    noise = np.clip(sigma * rng.standard_normal(points.shape), -clip, clip)
+    return (points + noise).astype(np.float32)
+
+
+def point_dropout(points: F32, rng: np.random.Generator, max_ratio: float = 0.5) -> F32:
+    """Replace a random fraction in ``[0, max_ratio)`` of each cloud's points by its first point."""
+    out = points.copy()
+    b, n, _ = points.shape
+    ratio = rng.uniform(0.0, max_ratio, size=(b, 1))
+    drop = rng.random((b, n)) < ratio
+    drop[:, 0] = False
+    rows, cols = np.nonzero(drop)
+    out[rows, cols] = points[rows, 0]
+    return out
+
+
+def random_scale(points: F32, rng: np.random.Generator, low: float = 0.9, high: float = 1.1) -> F32:
+    return (points * rng.uniform(low, high, size=(len(points), 1, 1))).astype(np.float32)
+
+
+def normalize_batch(points: F32) -> F32:
+    """Each cloud of ``(B, N, 3)`` centred on its mean and divided by its largest norm."""
+    p = points - points.mean(axis=1, keepdims=True)
+    r = np.linalg.norm(p, axis=2).max(axis=1)
+    return (p / np.where(r > 0, r, 1.0)[:, None, None]).astype(np.float32)
+
+
+def plane_cut(points: F32, rng: np.random.Generator, prob: float, max_ratio: float) -> F32:
+    """With probability ``prob`` per cloud, drop the points beyond a random vertical plane (a fraction
+    uniform in ``[0, max_ratio)``), fill with copies of kept points, rescale to the unit sphere."""
+    b, n, _ = points.shape
+    a = rng.uniform(0.0, 2 * np.pi, size=b)
+    d = np.stack([np.cos(a), np.sin(a), np.zeros(b)], axis=1)
+    order = np.argsort(np.einsum("bnk,bk->bn", points, d), axis=1)  # ascending: kept first
+    frac = rng.uniform(0.0, max_ratio, size=b) * (rng.random(b) < prob)
+    n_keep = np.maximum(1, np.ceil(n * (1.0 - frac)).astype(np.int64))
+    pick = np.floor(rng.random((b, n)) * n_keep[:, None]).astype(np.int64)  # random kept rank
+    ranks = np.where(np.arange(n)[None, :] < n_keep[:, None], np.arange(n)[None, :], pick)
+    out = np.take_along_axis(points, np.take_along_axis(order, ranks, axis=1)[:, :, None], axis=1)
+    cut = frac > 0
+    out[cut] = normalize_batch(out[cut])
+    out[~cut] = points[~cut]
+    return out
+
+
+def augment_batch(points: F32, rng: np.random.Generator, cfg: AugmentConfig) -> F32:
+    """All augmentations of ``cfg`` applied to a batch (a new array)."""
+    out = np.asarray(points, dtype=np.float32)
+    if cfg.cut_prob > 0:
+        out = plane_cut(out, rng, cfg.cut_prob, cfg.cut_max)
+    if cfg.yaw:
+        out = random_yaw(out, rng)
+    if cfg.scale[0] != 1.0 or cfg.scale[1] != 1.0:
+        out = random_scale(out, rng, *cfg.scale)
+    if cfg.jitter_sigma > 0:
+        out = jitter(out, rng, cfg.jitter_sigma, cfg.jitter_clip)
+    if cfg.dropout_max > 0:
+        out = point_dropout(out, rng, cfg.dropout_max)
+    return out

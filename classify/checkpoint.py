@@ -1,0 +1,75 @@
+"""Checkpoints: one ``torch.save`` dict of the weights and plain metadata, loaded with
+``weights_only=True`` (no pickled code).
+
+Keys: ``format``, ``state_dict``, ``model_config`` (:class:`PointNetConfig`), ``class_names``,
+``n_points`` (points per cloud fed to the network), ``synthesis`` (:class:`SynthesisSettings`),
+``train`` (:class:`TrainConfig`), ``metrics`` (any JSON-like dict).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from classify.errors import CheckpointError
+from classify.pointnet import PointNet, PointNetConfig
+
+FORMAT = "auvlink.classify.pointnet/1"
+
+
+@dataclass
+class Checkpoint:
+    model: PointNet
+    class_names: tuple[str, ...]
+    n_points: int
+    synthesis: dict[str, Any] = field(default_factory=dict)
+    train: dict[str, Any] = field(default_factory=dict)
+    metrics: dict[str, Any] = field(default_factory=dict)
+
+
+def _plain(x: Any) -> Any:
+    """JSON-like copy (tuples to lists, numpy scalars to Python) that ``weights_only`` loads."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_plain(v) for v in x]
+    if hasattr(x, "item") and callable(x.item):
+        return x.item()
+    return x
+
+
+def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_points: int,
+                    synthesis: dict[str, Any] | None = None, train: dict[str, Any] | None = None,
+                    metrics: dict[str, Any] | None = None) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
+    torch.save({"format": FORMAT, "state_dict": state, "model_config": _plain(model.cfg.to_dict()),
+                "class_names": list(class_names), "n_points": int(n_points),
+                "synthesis": _plain(synthesis or {}), "train": _plain(train or {}),
+                "metrics": _plain(metrics or {})}, path)
+    return path
+
+
+def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> Checkpoint:
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"no checkpoint at {path}")
+    try:
+        d = torch.load(path, map_location=device, weights_only=True)
+    except Exception as exc:  # torch raises many types for a bad file
+        raise CheckpointError(f"{path}: not a readable checkpoint: {exc}") from exc
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise CheckpointError(f"{path}: not an auvlink PointNet checkpoint (format {FORMAT!r} expected)")
+    try:
+        model = PointNet(PointNetConfig.from_dict(d["model_config"]))
+        model.load_state_dict(d["state_dict"])
+    except (KeyError, RuntimeError, TypeError) as exc:
+        raise CheckpointError(f"{path}: weights do not match the stored model config: {exc}") from exc
+    model.to(device).eval()
+    return Checkpoint(model, tuple(d["class_names"]), int(d["n_points"]), d.get("synthesis", {}),
+                      d.get("train", {}), d.get("metrics", {}))

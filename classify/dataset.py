@@ -1,0 +1,146 @@
+"""Synthesized cloud sets: every catalog class seen from every scan direction, cached on disk.
+
+A :class:`CloudSet` holds ``points (M, N, 3)`` float32 (unit sphere), integer ``labels``, the class
+names and the (heading, tilt) each cloud was synthesized for. :func:`synthesize_set` builds one
+from a mesh source (``mesh_for(class_name) -> (vertices, triangles)``); each class is cached as an
+``.npz`` named by a hash of the settings, the class name and the mesh bytes, so a change to any of
+them synthesizes afresh. Each view draws from its own generator, spawned from
+``SeedSequence([seed, crc32(class_name)])``: same settings, same clouds, in any order.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import os
+import zlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from classify.errors import SynthesisError
+from classify.synthesis import MeshSynthesizer, SynthesisSettings
+
+MeshSource = Callable[[str], tuple[npt.NDArray[Any], npt.NDArray[Any]]]
+CACHE_VERSION = 2
+
+
+@dataclass(frozen=True)
+class CloudSet:
+    points: npt.NDArray[np.float32]
+    labels: npt.NDArray[np.int64]
+    class_names: tuple[str, ...]
+    headings_deg: npt.NDArray[np.float64]
+    tilts_deg: npt.NDArray[np.float64]
+
+    def __len__(self) -> int:
+        return len(self.labels)
+
+    def subset(self, idx: npt.NDArray[np.integer[Any]]) -> CloudSet:
+        return CloudSet(self.points[idx], self.labels[idx], self.class_names,
+                        self.headings_deg[idx], self.tilts_deg[idx])
+
+
+def default_cache_dir() -> Path:
+    """``$AUVLINK_CACHE/classify``, else ``~/.cache/auvlink/classify``."""
+    root = os.environ.get("AUVLINK_CACHE")
+    return (Path(root) if root else Path.home() / ".cache" / "auvlink") / "classify"
+
+
+def catalog_meshes() -> tuple[tuple[str, ...], MeshSource]:
+    """The simulator's object catalog: its class names and ``mesh_for``."""
+    try:
+        from auvlink.sim.catalog import CLASSES, mesh_for
+    except ImportError as exc:
+        raise SynthesisError("the object catalog auvlink.sim.catalog is not available") from exc
+    return tuple(CLASSES), mesh_for
+
+
+def _cache_key(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArray[Any],
+               settings: SynthesisSettings) -> str:
+    h = hashlib.sha256()
+    h.update(json.dumps({"v": CACHE_VERSION, "class": name, "settings": settings.to_dict()},
+                        sort_keys=True).encode())
+    h.update(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(triangles, dtype=np.int64).tobytes())
+    return h.hexdigest()[:20]
+
+
+def synthesize_class(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArray[Any],
+                     settings: SynthesisSettings) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float64]]:
+    """Clouds ``(D * copies, N, 3)`` of one mesh and their (heading, tilt) in degrees."""
+    synth = MeshSynthesizer(vertices, triangles)
+    dirs = settings.directions
+    seeds = np.random.SeedSequence([settings.seed, zlib.crc32(name.encode())]).spawn(
+        len(dirs) * settings.copies)
+    clouds, meta = [], []
+    for i, (heading, tilt) in enumerate(dirs):
+        for c in range(settings.copies):
+            rng = np.random.default_rng(seeds[i * settings.copies + c])
+            cloud, _ = synth.view(math.radians(heading), math.radians(tilt), settings, rng)
+            clouds.append(cloud)
+            meta.append((heading, tilt))
+    return np.stack(clouds), np.asarray(meta, dtype=np.float64)
+
+
+def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: SynthesisSettings,
+                   cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
+    """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given)."""
+    from tqdm import tqdm
+
+    pts, labels, meta = [], [], []
+    for label, name in enumerate(tqdm(class_names, desc="synthesize", disable=not progress, leave=False)):
+        vertices, triangles = mesh_for(name)
+        path = None
+        if cache_dir is not None:
+            path = Path(cache_dir) / f"{name}-{_cache_key(name, vertices, triangles, settings)}.npz"
+        if path is not None and path.is_file():
+            with np.load(path) as z:
+                clouds, dirs = z["points"], z["directions"]
+        else:
+            clouds, dirs = synthesize_class(name, vertices, triangles, settings)
+            if path is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")
+                np.savez_compressed(tmp, points=clouds, directions=dirs)
+                os.replace(tmp, path)
+        pts.append(clouds)
+        labels.append(np.full(len(clouds), label, dtype=np.int64))
+        meta.append(dirs)
+    d = np.concatenate(meta)
+    return CloudSet(np.concatenate(pts).astype(np.float32), np.concatenate(labels), tuple(class_names),
+                    d[:, 0], d[:, 1])
+
+
+def heldout_settings(settings: SynthesisSettings, seed: int | None = None) -> SynthesisSettings:
+    """Directions and draws not used in training: headings shifted by half a step, tilts between the
+    training tilts (and 2.5 deg beyond both ends), another seed, a wider altitude range."""
+    hs = sorted(settings.headings_deg)
+    step = (hs[1] - hs[0]) if len(hs) > 1 else 20.0
+    ts = sorted(settings.tilts_deg)
+    mids = [(a + b) / 2 for a, b in itertools.pairwise(ts)]
+    tilts = [ts[0] + 2.5, *mids, ts[-1] - 2.5] if len(ts) > 1 else [ts[0] + 2.5]
+    lo, hi = settings.altitude_m
+    return replace(settings, headings_deg=tuple(float(h + step / 2) % 360.0 for h in hs),
+                   tilts_deg=tuple(float(t) for t in tilts), altitude_m=(0.8 * lo, 1.2 * hi),
+                   seed=settings.seed + 1000 if seed is None else seed)
+
+
+def stratified_split(labels: npt.NDArray[np.int64], val_fraction: float,
+                     rng: np.random.Generator) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Indices (train, val) with ``val_fraction`` of each class in val (at least one when possible)."""
+    train, val = [], []
+    for c in np.unique(labels):
+        idx = rng.permutation(np.nonzero(labels == c)[0])
+        n_val = round(val_fraction * len(idx))
+        if val_fraction > 0 and len(idx) > 1:
+            n_val = max(1, n_val)
+        val.append(idx[:n_val])
+        train.append(idx[n_val:])
+    return np.sort(np.concatenate(train)), np.sort(np.concatenate(val))

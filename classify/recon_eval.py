@@ -1,0 +1,133 @@
+"""Clouds that recon reconstructs from simulated passes over single catalog objects (evaluation only).
+
+Per pass: one object at the origin of a gently rough seabed, turned by ``heading``; the vehicle
+flies a straight level line north at ``altitude`` and 1 m/s, ``lateral`` metres to the side, from
+``run_in`` metres before the object to ``run_out`` past it. Frames are rendered by the simulator
+(:class:`auvlink.sim.sonar_render.SonarRenderer`, speckle on) at ``fps`` and fed with the true poses
+to :class:`recon.pipeline.Reconstructor` with the pipeline's configuration
+(``auvlink.pipeline.process.default_recon_config``; recon's own defaults where that is missing),
+optionally overridden (highlight threshold factor, front-slope carving). The cloud of the detected
+object nearest the origin is returned. Poses are true here (no navigation noise); whole missions
+are the pipeline's test.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+
+@dataclass(frozen=True)
+class PassSettings:
+    headings_deg: tuple[float, ...] = (10.0, 55.0, 100.0, 145.0, 190.0, 235.0, 280.0, 325.0)
+    tilts_deg: tuple[float, ...] = (25.0, 35.0)
+    altitudes_m: tuple[float, ...] = (4.5,)
+    laterals_m: tuple[float, ...] = (0.0,)
+    spread_deg: float = 14.0
+    depth_m: float = 20.0
+    roughness_m: float = 0.02
+    window_start: float = 1.0
+    window_length: float = 10.0
+    fps: float = 10.0
+    speed: float = 1.0
+    run_in: float = 14.0
+    run_out: float = 2.0
+    rays_per_beam: int = 16
+    seed: int = 7
+    highlight_k: float | None = None  # override of recon's highlight threshold factor (None: its default)
+    carve_front_slope: bool | None = None  # override of recon's front-slope carving (None: its default)
+
+
+@dataclass(frozen=True)
+class ReconCloud:
+    class_name: str
+    heading_deg: float
+    tilt_deg: float
+    altitude_m: float
+    lateral_m: float
+    points: npt.NDArray[np.float64]  # (n, 3) world NED; empty when nothing was detected
+
+
+def _base_config() -> Any:
+    try:
+        from auvlink.pipeline.process import default_recon_config
+    except ImportError:
+        from recon.pipeline import ReconConfig
+
+        return ReconConfig()
+    return default_recon_config()
+
+
+def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altitude: float, lateral: float,
+                     s: PassSettings) -> npt.NDArray[np.float64]:
+    """Points of the object recon detects nearest the origin, world NED (``(0, 3)`` if none)."""
+    from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
+    from auvlink.sim.sonar_render import SonarRenderer, frame_rng
+    from recon.pipeline import Reconstructor
+    from recon.sonar_geometry import SonarGeometry
+    from recon.trajectory import Trajectory
+
+    seed = int(np.random.SeedSequence([s.seed, zlib.crc32(class_name.encode()), round(heading_deg * 100),
+                                       round(tilt_deg * 100), round(altitude * 100), round(lateral * 100)])
+               .generate_state(1)[0] & 0x7FFFFFFF)
+    sonar = SonarConfig(tilt_deg=tilt_deg, window_start=s.window_start, window_length=s.window_length, fps=s.fps,
+                        spread_deg=s.spread_deg, rays_per_beam=s.rays_per_beam)
+    scene = Scene(seed=seed, seabed=Seabed(depth=s.depth_m, roughness=s.roughness_m),
+                  objects=(SceneObject(class_name, 0.0, 0.0, heading_deg),),
+                  survey=Survey(line_length=s.run_in + s.run_out, line_spacing=3.5, lines=1, altitude=altitude,
+                                speed=s.speed), sonar=sonar)
+    renderer = SonarRenderer(scene)
+    n = int((s.run_in + s.run_out) / s.speed * s.fps) + 1
+    t = np.arange(n) / s.fps
+    pos = np.stack([-s.run_in + s.speed * t, np.full(n, lateral), np.full(n, s.depth_m - altitude)], axis=1)
+    zeros = np.zeros(n)
+    traj = Trajectory.from_euler(t, pos, zeros, zeros, zeros, altitude=np.full(n, altitude))
+    geom = SonarGeometry.from_degrees(tilt_deg=tilt_deg, spread_deg=s.spread_deg, window_start=s.window_start,
+                                      window_length=s.window_length)
+    config = _base_config()
+    if s.highlight_k is not None:
+        config = replace(config, highlight=replace(config.highlight, k=s.highlight_k))
+    if s.carve_front_slope is not None:
+        config = replace(config, front_slope=s.carve_front_slope)
+    rec = Reconstructor(geom, traj, config)
+    for i in range(n):
+        rec.add_frame(float(t[i]), renderer.render(pos[i], 0.0, 0.0, 0.0, frame_rng(seed, i)))
+    objects = rec.finish()
+    if not objects:
+        return np.zeros((0, 3))
+    best = min(objects, key=lambda o: float(np.hypot(o.centroid[0], o.centroid[1])))
+    return np.asarray(best.points, dtype=np.float64)
+
+
+def iter_passes(class_names: Sequence[str], s: PassSettings) -> Iterator[tuple[str, float, float, float, float]]:
+    for name in class_names:
+        for h in s.headings_deg:
+            for tilt in s.tilts_deg:
+                for alt in s.altitudes_m:
+                    for lat in s.laterals_m:
+                        yield name, h, tilt, alt, lat
+
+
+def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool = False) -> list[ReconCloud]:
+    from tqdm import tqdm
+
+    jobs = list(iter_passes(class_names, s))
+    out = []
+    for name, h, tilt, alt, lat in tqdm(jobs, desc="simulate+recon", disable=not progress):
+        pts = reconstruct_pass(name, h, tilt, alt, lat, s)
+        out.append(ReconCloud(name, h, tilt, alt, lat, pts))
+    return out
+
+
+def horizontal_extent(points: npt.NDArray[np.float64]) -> float:
+    """Largest horizontal distance of the cloud's points from their mean (m)."""
+    if len(points) == 0:
+        return 0.0
+    d = points[:, :2] - points[:, :2].mean(axis=0)
+    return float(math.sqrt(float((d**2).sum(axis=1).max())))
