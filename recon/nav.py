@@ -9,7 +9,8 @@ the gyro and DVL sample times (the span both cover).
   cos(pitch) (q = 0 for a single-axis gyro), and integrated: trapezoid for instantaneous rates,
   a plain cumulative sum for delta angles (each the increment since the previous sample). The start
   value comes from the DVL compass: the circular mean, over the first ``heading_init_s``, of the DVL
-  heading minus the gyro-integrated heading change (one noisy compass sample would tilt every line). Between gyro samples the rate is constant.
+  heading minus the gyro-integrated heading change (one noisy compass sample would tilt every line).
+  Between gyro samples the rate is constant.
 - Velocity: DVL velocity converted once to FRD (ship/instrument, through the mounting) or NED
   (earth); PD0 bottom track is negated (bottom relative to instrument -> vehicle over ground); the
   lever arm is removed, v_origin = v_dvl - omega x l. During a dropout (invalid samples or a time gap
