@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from framer_helpers import is_subsequence, run
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -41,21 +42,6 @@ def make_frame(ping_mode: int = 1, samples: int = 8, index: int = 0, seed: int =
     h["SoundSpeed"], h["SamplePeriod"], h["SampleStartDelay"] = 1500.0, 10, 2000
     img = rng.integers(0, 256, PING_MODE_BEAMS[ping_mode] * samples, dtype=np.uint8)
     return h.tobytes() + img.tobytes()
-
-
-def feed_chunked(framer: ArisFramer, stream: bytes, cuts: list[int]) -> list[bytes]:
-    out: list[bytes] = []
-    pos = 0
-    for n in cuts:
-        out += framer.feed(stream[pos : pos + n])
-        pos += n
-    out += framer.feed(stream[pos:])
-    return out + framer.flush()
-
-
-def is_subsequence(needles: list[bytes], hay: list[bytes]) -> bool:
-    it = iter(hay)
-    return all(any(n == h for h in it) for n in needles)
 
 
 # --- the real recording ------------------------------------------------------------------
@@ -122,7 +108,7 @@ def test_sample_round_trip_and_zero_copy(sample: bytes) -> None:
 
 def test_sample_through_framer_and_registry(sample: bytes) -> None:
     framer = ArisFramer()
-    raws = feed_chunked(framer, sample[1024:], [4096] * 140)
+    raws = run(framer, sample[1024:], [4096] * 140)
     assert len(raws) == 6 and framer.stats.dropped_bytes == 0 and framer.stats.truncated == 0
     fmt = formats.get("aris")
     assert fmt.encoding == "soundmetrics.aris" and fmt.read_file is aris.read_file
@@ -249,7 +235,7 @@ def noisy_stream(draw: st.DrawFn) -> tuple[bytes, list[bytes], list[int]]:
 def test_framer_fuzz(case: tuple[bytes, list[bytes], list[int]]) -> None:
     stream, intact, cuts = case
     framer = ArisFramer()
-    out = feed_chunked(framer, stream, cuts)
+    out = run(framer, stream, cuts)
     assert is_subsequence(intact, out)
     s = framer.stats
     assert s.bytes_in == len(stream) and s.frames == len(out)
@@ -263,7 +249,7 @@ def test_framer_cut_frame_does_not_swallow_next() -> None:
     grown = bytearray(a)
     grown[468:472] = (4000).to_bytes(4, "little")  # claims ~190 kB
     framer = ArisFramer()
-    out = feed_chunked(framer, bytes(grown) + b + c, [700, 700, 700])
+    out = run(framer, bytes(grown) + b + c, [700, 700, 700])
     assert out == [b, c]
     assert framer.stats.truncated == 1 and framer.stats.dropped_bytes == len(a)
     tail = ArisFramer()
@@ -278,7 +264,7 @@ def test_framer_every_header_bit_flip(field_offset: int) -> None:
         damaged[field_offset + bit // 8] ^= 1 << (bit % 8)
         for cuts in ([], [1100, 300, 50, 2000], [7] * 200):
             framer = ArisFramer()
-            out = feed_chunked(framer, b"\x00" * 5 + bytes(damaged) + b + c, cuts)
+            out = run(framer, b"\x00" * 5 + bytes(damaged) + b + c, cuts)
             assert out[-2:] == [b, c], (field_offset, bit, cuts)
 
 
@@ -286,5 +272,5 @@ def test_framer_every_header_bit_flip(field_offset: int) -> None:
 @given(st.binary(max_size=3000), st.integers(1, 500))
 def test_framer_garbage_never_raises(data: bytes, chunk: int) -> None:
     framer = ArisFramer()
-    out = feed_chunked(framer, data, [chunk] * (len(data) // chunk))
+    out = run(framer, data, [chunk] * (len(data) // chunk))
     assert framer.stats.dropped_bytes + sum(map(len, out)) == len(data)

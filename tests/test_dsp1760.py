@@ -8,6 +8,7 @@ import struct
 
 import numpy as np
 import pytest
+from framer_helpers import is_subsequence, run
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -195,22 +196,6 @@ def test_build_round_trip(
 
 
 # --- framer ------------------------------------------------------------------------------
-def run(framer: Dsp1760Framer, stream: bytes, cuts: list[int]) -> list[bytes]:
-    out: list[bytes] = []
-    pos = 0
-    for c in cuts:
-        out += framer.feed(stream[pos : pos + c])
-        pos += c
-    out += framer.feed(stream[pos:])
-    out += framer.flush()
-    return out
-
-
-def is_subsequence(expected: list[bytes], got: list[bytes]) -> bool:
-    it = iter(got)
-    return all(any(x == y for y in it) for x in expected)
-
-
 def test_framer_one_byte_at_a_time() -> None:
     rng = np.random.default_rng(3)
     frames = [encode(build(rng.normal(size=3), rng.normal(size=3), sequence=i)) for i in range(20)]

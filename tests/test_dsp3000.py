@@ -6,6 +6,7 @@ import json
 import math
 
 import pytest
+from framer_helpers import is_subsequence, run
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -131,22 +132,6 @@ def test_decode_encode_record(value: float, valid: bool, mode: str) -> None:
 
 
 # --- framer ------------------------------------------------------------------------------
-def run(framer: Dsp3000Framer, stream: bytes, cuts: list[int]) -> list[bytes]:
-    out: list[bytes] = []
-    pos = 0
-    for c in cuts:
-        out += framer.feed(stream[pos : pos + c])
-        pos += c
-    out += framer.feed(stream[pos:])
-    out += framer.flush()
-    return out
-
-
-def is_subsequence(expected: list[bytes], got: list[bytes]) -> bool:
-    it = iter(got)
-    return all(any(x == y for y in it) for x in expected)
-
-
 def test_framer_one_byte_at_a_time() -> None:
     lines = [line(n * 1234, n % 2) for n in range(-20, 20)]
     stream = b"".join(lines)

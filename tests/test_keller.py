@@ -7,6 +7,7 @@ import struct
 
 import numpy as np
 import pytest
+from framer_helpers import is_subsequence, run
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -191,22 +192,6 @@ def test_many_generated_frames_round_trip() -> None:
 
 
 # --- framer ------------------------------------------------------------------------------
-def run(framer: KellerFramer, stream: bytes, cuts: list[int]) -> list[bytes]:
-    out: list[bytes] = []
-    pos = 0
-    for c in cuts:
-        out += framer.feed(stream[pos : pos + c])
-        pos += c
-    out += framer.feed(stream[pos:])
-    out += framer.flush()
-    return out
-
-
-def is_subsequence(expected: list[bytes], got: list[bytes]) -> bool:
-    it = iter(got)
-    return all(any(x == y for y in it) for x in expected)
-
-
 def session(n: int) -> list[bytes]:
     """What a tap sees: init, then alternating P1 and TOB1 reads, each answered."""
     frames = [encode(KellerInitRequest(1)), encode(KellerInitResponse(1, 5, 20, 19, 7, 10, 0))]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from framer_helpers import is_subsequence, run
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -156,22 +157,6 @@ def test_many_generated_lines() -> None:
 
 
 # --- framer ------------------------------------------------------------------------------
-def run(framer: ParoFramer, stream: bytes, cuts: list[int]) -> list[bytes]:
-    out: list[bytes] = []
-    pos = 0
-    for c in cuts:
-        out += framer.feed(stream[pos : pos + c])
-        pos += c
-    out += framer.feed(stream[pos:])
-    out += framer.flush()
-    return out
-
-
-def is_subsequence(expected: list[bytes], got: list[bytes]) -> bool:
-    it = iter(got)
-    return all(any(x == y for y in it) for x in expected)
-
-
 def test_framer_one_byte_at_a_time() -> None:
     lines = [READING, PT_RESPONSE] * 10
     stream = b"".join(lines)
