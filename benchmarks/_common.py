@@ -58,6 +58,13 @@ def table(rows: Sequence[dict[str, Any]], columns: Sequence[str] | None = None) 
     return "\n".join(out)
 
 
+def smoke() -> bool:
+    """True in the CI smoke mode (``auvlink bench --smoke`` sets ``AUVLINK_BENCH_SMOKE=1``): every stage
+    shrinks its inputs so that all stages together finish in well under two minutes, to keep the scripts
+    from rotting; the figures are not meant to be quoted."""
+    return os.environ.get("AUVLINK_BENCH_SMOKE", "") not in ("", "0")
+
+
 def script_main(run: Callable[..., dict[str, Any]], doc: str | None) -> None:
     """``python benchmarks/bench_X.py [--out DIR] [--full]``: the command line of every script."""
     import argparse
