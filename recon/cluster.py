@@ -13,6 +13,9 @@ Its points then leave the working set. Points arriving later within ``eps`` of a
 are counted in ``late_points`` and dropped (no duplicate objects); old noise points are pruned after
 ``noise_keep_s``. Where no object is revisited after it was finalized (and noise is not pruned
 under a growing cluster), streaming returns exactly the batch objects.
+
+Each point may carry ``extra`` columns (e.g. the sonar ray it came from, for the front-slope
+correction); they travel with the point and end up in :attr:`DetectedObject.extra`.
 """
 
 from __future__ import annotations
@@ -24,6 +27,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
+
+from recon.errors import ReconError
 
 F64 = NDArray[np.float64]
 
@@ -43,7 +48,7 @@ class ClusterConfig:
 
 @dataclass(frozen=True, eq=False)
 class DetectedObject:
-    """One cluster: centroid (NED m), axis-aligned extent (N, E, D sizes in m), its points."""
+    """One cluster: centroid (NED m, :func:`robust_centre`), axis-aligned extent (N, E, D sizes in m), points."""
 
     id: int
     centroid: F64
@@ -53,6 +58,7 @@ class DetectedObject:
     t_first: float
     t_last: float
     times: F64 = field(repr=False, default_factory=lambda: np.zeros(0))
+    extra: F64 = field(repr=False, default_factory=lambda: np.zeros((0, 0)))  # per-point columns
 
     @property
     def size(self) -> F64:
@@ -92,8 +98,18 @@ def dbscan_labels(points: ArrayLike, eps: float, min_points: int,
     return np.asarray(labels, dtype=np.int64)
 
 
-def _objects(points: F64, times: F64, labels: NDArray[np.int64], min_size: int) -> list[tuple[F64, F64]]:
-    out: list[tuple[F64, F64]] = []
+Group = tuple[F64, F64, F64]  # points, times, extra columns
+
+
+def _extra(extra: ArrayLike | None, n: int) -> F64:
+    if extra is None:
+        return np.zeros((n, 0))
+    e = np.asarray(extra, dtype=np.float64)
+    return e.reshape(n, -1) if n else e.reshape(0, e.shape[-1] if e.ndim == 2 else 0)
+
+
+def _objects(points: F64, times: F64, labels: NDArray[np.int64], min_size: int, extra: F64) -> list[Group]:
+    out: list[Group] = []
     if labels.size == 0:
         return out
     order = np.argsort(labels, kind="stable")
@@ -103,14 +119,26 @@ def _objects(points: F64, times: F64, labels: NDArray[np.int64], min_size: int) 
         if lab[s] < 0 or e - s < min_size:
             continue
         idx = np.sort(order[s:e])
-        out.append((points[idx], times[idx]))
+        out.append((points[idx], times[idx], extra[idx]))
     return out
 
 
-def _make(i: int, pts: F64, ts: F64) -> DetectedObject:
-    return DetectedObject(id=i, centroid=pts.mean(axis=0), extent=pts.max(axis=0) - pts.min(axis=0),
+def robust_centre(pts: F64, q: float = 2.0) -> F64:
+    """Centre of the box between the ``q``-th and (100 - q)-th percentiles of each axis.
+
+    The sonar sees an object's near side and top, from as many frames as it approaches, so the
+    point mean leans towards the vehicle (0.25 m on the demo scene with true navigation); the
+    robust box centre does not weigh by point density (0.18 m), and the percentiles ignore strays.
+    """
+    lo, hi = np.percentile(pts, [q, 100.0 - q], axis=0)
+    return np.asarray(0.5 * (lo + hi), dtype=np.float64)
+
+
+def make_object(i: int, pts: F64, ts: F64, extra: F64 | None = None) -> DetectedObject:
+    """A :class:`DetectedObject` from its points (centroid: :func:`robust_centre`, extent: min-max box)."""
+    return DetectedObject(id=i, centroid=robust_centre(pts), extent=pts.max(axis=0) - pts.min(axis=0),
                           points=pts, n_points=int(pts.shape[0]), t_first=float(ts.min()),
-                          t_last=float(ts.max()), times=ts)
+                          t_last=float(ts.max()), times=ts, extra=_extra(extra, pts.shape[0]))
 
 
 def cluster_labels(points: F64, cfg: ClusterConfig) -> NDArray[np.int64]:
@@ -121,14 +149,15 @@ def cluster_labels(points: F64, cfg: ClusterConfig) -> NDArray[np.int64]:
     return dbscan_labels(points, cfg.eps, cfg.min_points, cfg.backend)
 
 
-def cluster(points: ArrayLike, times: ArrayLike, config: ClusterConfig | None = None) -> list[DetectedObject]:
+def cluster(points: ArrayLike, times: ArrayLike, config: ClusterConfig | None = None,
+            extra: ArrayLike | None = None) -> list[DetectedObject]:
     """Batch clustering: objects ordered by first sighting (then north), ids 0, 1, ..."""
     cfg = config or ClusterConfig()
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     t = np.asarray(times, dtype=np.float64).reshape(-1)
-    groups = _objects(p, t, cluster_labels(p, cfg), cfg.min_cluster_points)
+    groups = _objects(p, t, cluster_labels(p, cfg), cfg.min_cluster_points, _extra(extra, p.shape[0]))
     groups.sort(key=lambda g: (float(g[1].min()), float(g[0][:, 0].mean())))
-    return [_make(i, g[0], g[1]) for i, g in enumerate(groups)]
+    return [make_object(i, *g) for i, g in enumerate(groups)]
 
 
 class StreamingClusterer:
@@ -138,47 +167,52 @@ class StreamingClusterer:
         self.config = config or ClusterConfig()
         self._pts: list[F64] = []
         self._ts: list[F64] = []
+        self._ex: list[F64] = []
         self._final: list[F64] = []
         self._final_tree: cKDTree | None = None
         self._next_id = 0
         self.late_points = 0
         self.pruned_points = 0
 
-    def add(self, points: ArrayLike, times: ArrayLike) -> None:
+    def add(self, points: ArrayLike, times: ArrayLike, extra: ArrayLike | None = None) -> None:
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         t = np.broadcast_to(np.asarray(times, dtype=np.float64), (p.shape[0],)).copy()
         if p.shape[0] == 0:
             return
+        e = _extra(extra, p.shape[0])
+        if self._ex and self._ex[0].shape[1] != e.shape[1]:
+            raise ReconError(f"extra columns changed from {self._ex[0].shape[1]} to {e.shape[1]}")
         if self._final_tree is not None:
             d, _ = self._final_tree.query(p, distance_upper_bound=self.config.eps)
             late = np.isfinite(d)
             self.late_points += int(late.sum())
-            p, t = p[~late], t[~late]
+            p, t, e = p[~late], t[~late], e[~late]
         self._pts.append(p)
         self._ts.append(t)
+        self._ex.append(e)
 
     @property
     def n_active(self) -> int:
         return int(sum(a.shape[0] for a in self._pts))
 
-    def _active(self) -> tuple[F64, F64]:
+    def _active(self) -> tuple[F64, F64, F64]:
         if not self._pts:
-            return np.zeros((0, 3)), np.zeros(0)
-        p, t = np.concatenate(self._pts), np.concatenate(self._ts)
-        self._pts, self._ts = [p], [t]
-        return p, t
+            return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 0))
+        p, t, e = np.concatenate(self._pts), np.concatenate(self._ts), np.concatenate(self._ex)
+        self._pts, self._ts, self._ex = [p], [t], [e]
+        return p, t, e
 
     def poll(self, vehicle_position: ArrayLike, t_now: float) -> list[DetectedObject]:
         """Finalize and return the clusters the vehicle is past (see the module docstring)."""
         cfg = self.config
-        p, t = self._active()
+        p, t, e = self._active()
         if p.shape[0] == 0:
             return []
         veh = np.asarray(vehicle_position, dtype=np.float64).reshape(3)
         labels = cluster_labels(p, cfg)
         keep = np.ones(p.shape[0], bool)
         stale_before = t_now - cfg.noise_keep_s
-        done: list[tuple[F64, F64]] = []
+        done: list[Group] = []
         for lab in np.unique(labels[labels >= 0]):
             idx = np.flatnonzero(labels == lab)
             newest = t[idx].max()
@@ -189,19 +223,19 @@ class StreamingClusterer:
             lo, hi = p[idx, :2].min(axis=0), p[idx, :2].max(axis=0)
             gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo - veh[:2], veh[:2] - hi)))
             if t_now - newest >= cfg.quiet_s and gap >= cfg.margin:
-                done.append((p[idx], t[idx]))
+                done.append((p[idx], t[idx], e[idx]))
                 keep[idx] = False
         stale = (labels < 0) & (t < stale_before)
         self.pruned_points += int(stale.sum())
         keep &= ~stale
-        self._pts, self._ts = [p[keep]], [t[keep]]
+        self._pts, self._ts, self._ex = [p[keep]], [t[keep]], [e[keep]]
         return self._emit(done)
 
-    def _emit(self, done: list[tuple[F64, F64]]) -> list[DetectedObject]:
+    def _emit(self, done: list[Group]) -> list[DetectedObject]:
         done.sort(key=lambda g: (float(g[1].min()), float(g[0][:, 0].mean())))
         out = []
-        for pts, ts in done:
-            out.append(_make(self._next_id, pts, ts))
+        for pts, ts, ex in done:
+            out.append(make_object(self._next_id, pts, ts, ex))
             self._next_id += 1
             self._final.append(pts)
         if done:
@@ -210,9 +244,9 @@ class StreamingClusterer:
 
     def flush(self) -> list[DetectedObject]:
         """End of mission: every remaining cluster is final."""
-        p, t = self._active()
-        groups = _objects(p, t, cluster_labels(p, self.config), self.config.min_cluster_points)
-        self._pts, self._ts = [], []
+        p, t, e = self._active()
+        groups = _objects(p, t, cluster_labels(p, self.config), self.config.min_cluster_points, e)
+        self._pts, self._ts, self._ex = [], [], []
         return self._emit(groups)
 
 

@@ -3,26 +3,28 @@
 :class:`Reconstructor` consumes frames (time, (n_bins, n_beams) uint8 image) and a pose source (a
 :class:`recon.trajectory.Trajectory` or anything with ``pose_at`` and ``altitude_at``). Per frame:
 pose interpolated at the frame time, expected seabed onset per beam (flat seabed at the DVL
-altitude), highlight-extension points (:mod:`recon.highlight`, optionally front-slope corrected,
-:mod:`recon.front_slope`) and, every ``seabed_every``-th frame, the seabed returns at the onset.
-Points wait in a pending buffer; :meth:`poll` (streaming) or :meth:`finish` (batch) removes the
-seabed (:mod:`recon.seabed`, fitted from the DVL seabed points and the sonar seabed returns) and
-clusters (:mod:`recon.cluster`). Pure computation: no ports, no files.
+altitude, or the seabed fitted so far), highlight-extension points (:mod:`recon.highlight`) and,
+every ``seabed_every``-th frame, the seabed returns at the onset. Points wait in a pending buffer
+with the range arc they came from; :meth:`poll` (streaming) or :meth:`finish` (batch) removes the
+seabed (:mod:`recon.seabed`, fitted from the DVL seabed points and the sonar seabed returns),
+clusters (:mod:`recon.cluster`) and, with ``front_slope`` (method ``arc``), moves each final
+object's front-slope points up their arcs (:mod:`recon.front_slope`). Pure computation: no ports,
+no files.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster
+from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster, make_object
 from recon.errors import GeometryError, ReconError
 from recon.frames import check_attitude
-from recon.front_slope import carve_keep
+from recon.front_slope import arc_columns, carve_keep, replace_on_arcs
 from recon.highlight import (
     HighlightConfig,
     first_returns,
@@ -48,7 +50,10 @@ class ReconConfig:
     highlight: HighlightConfig = field(default_factory=HighlightConfig)
     seabed: SeabedConfig = field(default_factory=SeabedConfig)
     cluster: ClusterConfig = field(default_factory=ClusterConfig)
-    front_slope: bool = True  # visibility carving of the front slope (recon.front_slope)
+    front_slope: bool = True  # correct the front slope (recon.front_slope)
+    front_slope_method: Literal["arc", "carve"] = "arc"  # re-place on the range arcs, or visibility carving
+    front_slope_length: float = 1.0  # m: arc method, how far behind a point its object's top is sought
+    front_slope_width: float = 0.25  # m: arc method, across the look direction
     front_slope_baseline: tuple[float, float] = (0.2, 3.0)  # m: distance of the witness frames
     front_slope_window: int = 64  # frames kept as witnesses
     front_slope_tol_bins: float = 1.5  # range tolerance of the carving test
@@ -69,7 +74,7 @@ class Reconstructor:
         self.geometry = geometry
         self.poses = poses
         self.config = config or ReconConfig()
-        self._pending: list[tuple[F64, F64]] = []
+        self._pending: list[tuple[F64, F64, F64]] = []
         self._seabed: list[F64] = []
         self._raw: list[F64] = []
         self._hist_origin: list[F64] = []
@@ -126,16 +131,17 @@ class Reconstructor:
                 sp = project(g, sf, sb, sr, pos[sel], rot[sel], "exact")
                 self.add_seabed_points(sp)
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
-        if self.config.front_slope:
+        arcs = arc_columns(g, fi, bi, ri, pos, rot) if self._arc else np.zeros((fi.size, 0))
+        if self.config.front_slope and self.config.front_slope_method == "carve":
             keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)
             self.front_slope_removed += int((~keep).sum())
-            pts, fi = pts[keep], fi[keep]
+            pts, fi, arcs = pts[keep], fi[keep], arcs[keep]
         self.frames += ts.size
         self.frames_with_points += int(np.unique(fi).size)
         self.points_total += int(fi.size)
         self._t_last = max(self._t_last, float(ts.max(initial=-np.inf)))
         if fi.size:
-            self._pending.append((np.asarray(pts, dtype=np.float64), ts[fi]))
+            self._pending.append((np.asarray(pts, dtype=np.float64), ts[fi], arcs))
             self._raw.append(np.asarray(pts, dtype=np.float64))
         return int(fi.size)
 
@@ -167,7 +173,6 @@ class Reconstructor:
             inside = bool(np.all(lo >= c_lo) and np.all(hi <= c_hi))
             recent = self.frames - self._onset_fit_frame < self.config.onset_refit_frames
             if inside and (n_sb == c_n or recent):
-                return model
                 return model
         if n_sb < self.config.seabed.min_points:
             return None
@@ -218,41 +223,55 @@ class Reconstructor:
     def seabed_points(self) -> F64:
         return np.concatenate(self._seabed) if self._seabed else np.zeros((0, 3))
 
-    def _filtered_pending(self) -> tuple[F64, F64]:
+    @property
+    def _arc(self) -> bool:
+        return self.config.front_slope and self.config.front_slope_method == "arc"
+
+    def _filtered_pending(self) -> tuple[F64, F64, F64]:
         if not self._pending:
-            return np.zeros((0, 3)), np.zeros(0)
-        p = np.concatenate([a for a, _ in self._pending])
-        t = np.concatenate([b for _, b in self._pending])
+            return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 10 if self._arc else 0))
+        p = np.concatenate([a for a, _, _ in self._pending])
+        t = np.concatenate([b for _, b, _ in self._pending])
+        e = np.concatenate([c for _, _, c in self._pending])
         self._pending = []
         if not self.config.remove_seabed or not self._seabed:
-            return p, t
+            return p, t, e
         sb = self.seabed_points
         pad = self.config.seabed.tile * 2.0
         lo, hi = p[:, :2].min(axis=0) - pad, p[:, :2].max(axis=0) + pad
         near = np.all((sb[:, :2] >= lo) & (sb[:, :2] <= hi), axis=1)
         if near.sum() < self.config.seabed.min_points:
-            return p, t
+            return p, t, e
         keep = object_mask(p, SeabedModel.fit(sb[near], self.config.seabed), self.config.seabed)
         self.seabed_removed += int((~keep).sum())
-        return p[keep], t[keep]
+        return p[keep], t[keep], e[keep]
+
+    def _finalize(self, objects: list[DetectedObject]) -> list[DetectedObject]:
+        """Front-slope correction (arc method) of final objects: points, centroid and extent."""
+        if not self._arc:
+            return objects
+        c = self.config
+        return [make_object(o.id, replace_on_arcs(o.points, o.extra, self.geometry.spread, c.front_slope_length,
+                                                  c.front_slope_width), o.times, o.extra) for o in objects]
 
     def poll(self, vehicle_position: ArrayLike, t_now: float | None = None) -> list[DetectedObject]:
         """Streaming: objects the vehicle is past, final from now on (classify them now)."""
         if self._stream is None:
             self._stream = StreamingClusterer(self.config.cluster)
-        p, t = self._filtered_pending()
-        self._stream.add(p, t)
-        out = self._stream.poll(vehicle_position, self._t_last if t_now is None else t_now)
+        p, t, e = self._filtered_pending()
+        self._stream.add(p, t, e)
+        out = self._finalize(self._stream.poll(vehicle_position, self._t_last if t_now is None else t_now))
         self.objects.extend(out)
         return out
 
     def finish(self) -> list[DetectedObject]:
         """End of the mission: the remaining objects (all of them when :meth:`poll` was never used)."""
-        p, t = self._filtered_pending()
+        p, t, e = self._filtered_pending()
         if self._stream is None:
-            out = cluster(p, t, self.config.cluster)
+            out = cluster(p, t, self.config.cluster, e)
         else:
-            self._stream.add(p, t)
+            self._stream.add(p, t, e)
             out = self._stream.flush()
+        out = self._finalize(out)
         self.objects.extend(out)
         return out

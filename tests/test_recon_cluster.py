@@ -35,7 +35,8 @@ def test_one_cluster_per_object() -> None:
     objs = cluster(p, t)
     assert len(objs) == 6
     cents = np.array([o.centroid for o in objs])
-    assert np.abs(cents - CENTRES).max() < 0.06  # ordered by first sighting = by north here
+    # robust box centre (2-98 % percentiles): noisier than the mean on Gaussian blobs with stray noise
+    assert np.abs(cents - CENTRES).max() < 0.15  # ordered by first sighting = by north here
     assert [o.id for o in objs] == list(range(6))
     for o in objs:
         assert o.n_points == o.points.shape[0] >= 380
