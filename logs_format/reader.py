@@ -194,6 +194,8 @@ class MissionLogReader:
 
         never = 1 << 64
         channel_of = self._channels.get
+        # per channel id: (topic, format), or None when the filter leaves it out (looked up once)
+        routes: dict[int, tuple[str, str | None] | None] = {}
         while True:
             while i < len(refs) and (not heap or refs[i].start_ns <= heap[0][0]):
                 load(i)
@@ -215,18 +217,23 @@ class MissionLogReader:
                 del open_chunks[k]
             for j in range(p, stop):
                 log_time, pub, seq, cid, data = msgs[j]
-                ch = channel_of(cid)
-                while ch is None and i < len(refs):  # its definition is in a chunk not opened yet
-                    load(i)
-                    i += 1
+                if cid in routes:
+                    route = routes[cid]
+                else:
                     ch = channel_of(cid)
-                if ch is None:
-                    self._orphans.add((refs[k].offset, log_time, seq))
-                    self.loss.orphan_messages = len(self._orphans)
+                    while ch is None and i < len(refs):  # its definition is in a chunk not opened yet
+                        load(i)
+                        i += 1
+                        ch = channel_of(cid)
+                    if ch is None:
+                        self._orphans.add((refs[k].offset, log_time, seq))
+                        self.loss.orphan_messages = len(self._orphans)
+                        continue
+                    wanted = names is None or ch.topic in names or ch.device in names
+                    route = routes[cid] = (ch.topic, ch.format) if wanted else None
+                if route is None:
                     continue
-                if names is not None and ch.topic not in names and ch.device not in names:
-                    continue
-                yield LogMessage(ch.topic, ch.format, log_time, pub, seq, data, cid)
+                yield LogMessage(route[0], route[1], log_time, pub, seq, data, cid)
 
 
 def read_messages(

@@ -107,7 +107,9 @@ class Replay:
 
     def frames(self) -> Iterator[LogMessage]:
         """Raw messages of the log, time ordered and paced."""
-        yield from paced(self.reader.messages(**self._filters), self.speed, self._clock, self._sleep)
+        if self.speed is None or self.speed <= 0 or math.isinf(self.speed):
+            return self.reader.messages(**self._filters)  # as fast as possible: no pacing layer
+        return paced(self.reader.messages(**self._filters), self.speed, self._clock, self._sleep)
 
     def driver(self, msg: LogMessage) -> Driver | None:
         """The driver of ``msg``'s channel (None for a JSON channel or an unknown format)."""
@@ -133,15 +135,21 @@ class Replay:
 
     def samples(self) -> Iterator[Sample]:
         """Decoded samples, through each device's framer and codec, paced like :meth:`frames`."""
+        # per channel: the bound feed and process of its driver (looked up once, not per frame)
+        routes: dict[str, tuple[Callable[[bytes], list[bytes]], Callable[[list[bytes], int], list[Sample]]]] = {}
+        last_t = self._last_t
         for msg in self.frames():
-            drv = self.driver(msg)
-            if drv is None:
-                continue
-            frames = drv.framer.feed(msg.data)
+            route = routes.get(msg.channel)
+            if route is None:
+                drv = self.driver(msg)
+                if drv is None:
+                    continue
+                route = routes[msg.channel] = (drv.framer.feed, drv.process)
+            frames = route[0](msg.data)
             if frames:
-                yield from drv.process(frames, msg.log_time_ns)
+                yield from route[1](frames, msg.log_time_ns)
             else:  # the framer waits for more bytes: its frame, if any, is stamped with this time
-                self._last_t[msg.channel] = msg.log_time_ns
+                last_t[msg.channel] = msg.log_time_ns
         for channel, drv in self.drivers.items():  # a framer that waits for more bytes
             rest = drv.framer.flush()
             if rest:

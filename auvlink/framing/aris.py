@@ -119,6 +119,11 @@ class ArisFramer(Framer):
         super().reset()
         self._checked = 0
 
+    def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
+        raw = data if isinstance(data, bytes) else bytes(data)
+        step = scan(raw, 0, False, 0, self.beams_ok)  # the first step _extract would take
+        return raw if step.kind == FRAME and step.n == len(raw) else None
+
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         out: list[bytes] = []
         pos = 0

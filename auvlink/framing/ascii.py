@@ -31,6 +31,13 @@ class AsciiLineFramer(Framer):
         """Whether an unterminated ``tail`` at end of stream may be the beginning of a frame."""
         return True
 
+    def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
+        line = data if isinstance(data, bytes) else bytes(data)
+        term = self.terminator
+        if line.endswith(term) and line.find(term) == len(line) - len(term) and self._frame_start(line) == 0:
+            return line  # one terminated line, all of it the frame
+        return None
+
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         frames: list[bytes] = []
         term = self.terminator

@@ -4,6 +4,12 @@ A framer keeps an internal buffer. Whatever cannot start a frame is dropped and 
 a frame whose checksum fails is counted and the search resumes one byte after its start,
 so a valid frame hidden inside garbage (or overlapping a damaged one) is never lost.
 ``flush()`` is called at end of stream: a partial frame left in the buffer counts as truncated.
+
+Fast path: when nothing is buffered, :meth:`Framer.feed` first asks the format's :meth:`Framer._whole`
+whether ``data`` is exactly one whole, valid frame (the common case when a log replays one frame per
+message, and for many packet transports). The answer must be exactly what :meth:`Framer._extract`
+would return, the same checks included (CRC, sanity); a framer that does not know returns None and
+the general path runs. The frame is then ``data`` itself (no copy).
 """
 
 from __future__ import annotations
@@ -39,6 +45,11 @@ class Framer(ABC):
     def feed(self, data: bytes) -> list[bytes]:
         """Add ``data`` and return every whole frame now complete, in stream order."""
         self.stats.bytes_in += len(data)
+        if not self._buf:
+            whole = self._whole(data)
+            if whole is not None:
+                self.stats.frames += 1
+                return [whole]
         self._buf += data
         frames = self._extract(self._buf)
         self.stats.frames += len(frames)
@@ -68,6 +79,12 @@ class Framer(ABC):
         if n > 0:
             del buf[:n]
             self.stats.dropped_bytes += n
+
+    def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
+        """``data`` as bytes when it is exactly one valid frame that :meth:`_extract` would return alone
+        from an empty buffer, leaving nothing behind and counting nothing; else None. Only asked when
+        nothing is buffered. Default: None (always the general path)."""
+        return None
 
     @abstractmethod
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:

@@ -184,6 +184,11 @@ class CanFrameFramer(Framer):
 
     format_name = "can"
 
+    def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
+        if len(data) == FRAME_SIZE and data[6:8] == MARKER and frame_problem(data) is None:
+            return bytes(data)
+        return None
+
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         out: list[bytes] = []
         pos = 0

@@ -38,6 +38,11 @@ class Dsp1760Framer(Framer):
 
     format_name = "dsp1760"
 
+    def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
+        if len(data) == FRAME_SIZE and data[:4] == HEADER and crc_ok(data):
+            return bytes(data)
+        return None
+
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         frames: list[bytes] = []
         while True:

@@ -53,7 +53,7 @@ class Pd0Framer(Framer):
         self.waves_records = 0
         self._good_headers: set[bytes] = set()  # headers already found plausible (they repeat)
 
-    def _plausible(self, buf: bytearray, i: int, nbytes: int, n: int) -> bool | None:
+    def _plausible(self, buf: bytes | bytearray, i: int, nbytes: int, n: int) -> bool | None:
         """Header sanity at ``i``: True / False, or None when more bytes are needed to tell."""
         if i + 6 > n:
             return None
@@ -77,6 +77,16 @@ class Pd0Framer(Framer):
             self._good_headers.clear()
         self._good_headers.add(key)
         return True
+
+    def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
+        raw = data if isinstance(data, bytes) else bytes(data)
+        n = len(raw)
+        if n < 8 or raw[0] != _PD0 or raw[1] != _PD0:
+            return None
+        nbytes = raw[2] | raw[3] << 8
+        if nbytes + 2 != n or nbytes < 6 or nbytes > self.max_nbytes or not self._plausible(raw, 0, nbytes, n):
+            return None
+        return raw if sum16(raw, 0, nbytes) == raw[n - 2] | raw[n - 1] << 8 else None
 
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         frames: list[bytes] = []

@@ -1,0 +1,242 @@
+"""End to end (issue #6): a simulated survey log replayed through the whole pipeline, timed from outside.
+
+Run: ``auvlink bench e2e --out DIR [--full]`` (or ``python benchmarks/bench_e2e.py --out DIR [--full]``).
+
+1. Simulate a lawnmower survey into a mission log with ``auvlink sim --scene S --out LOG`` (the default
+   scene stretched by ``_sim_log.survey_scene_text``: quick 5 minutes of mission, ``--full`` 30 minutes,
+   smoke one 45 m line, about 30 s). The log is cached under ``DIR/e2e-cache`` (keyed by the scene text),
+   so a rerun only replays.
+2. ``auvlink log info LOG --json``: the mission seconds and message count, and how long ``log info`` takes.
+3. ``auvlink replay LOG --out DIR/e2e-replay --fast``: wall seconds of the child process (Python start-up,
+   imports, replay through the live framers/codecs/drivers, navigation, reconstruction, classification,
+   outputs and report), its peak resident set (``wait4`` rusage of that child alone), x real time =
+   mission seconds / wall seconds. Goal: a 30-minute survey in <= 60 s (>= 30x).
+4. From ``DIR/e2e-replay/summary.json``: the per-stage timings and detection / classification precision and
+   recall against the simulator's ground truth. The summary's format belongs to the pipeline: whatever keys
+   it has are reported (``summary_keys``), numbers are taken where found, nothing is assumed.
+
+Quick and full (not smoke) also time ``auvlink demo --out DIR/e2e-demo`` (goal: <= 3 minutes after set-up).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from _common import smoke, table, write_json
+
+MINUTES = {"smoke": 0.5, "quick": 5.0, "full": 30.0}
+GOAL_X_REALTIME = 30.0  # 30-minute survey in <= 60 s
+GOAL_DEMO_S = 180.0
+
+
+def _auvlink() -> list[str]:
+    """The command that runs the CLI of this interpreter's environment."""
+    exe = Path(sys.executable).with_name("auvlink")
+    return [str(exe)] if exe.is_file() else [sys.executable, "-m", "auvlink"]
+
+
+def scene_text(minutes: float) -> str:
+    """The survey scene: the default scene stretched to ``minutes`` (< 1 minute: one 45 m line)."""
+    from auvlink.sim.scene import default_scene_text, loads_scene
+
+    if minutes >= 1.0:
+        from _sim_log import survey_scene_text
+
+        return survey_scene_text(minutes)
+    text = default_scene_text()
+    sv = loads_scene(text).survey
+    length = max(10.0, minutes * 60.0 * sv.speed)
+    text = re.sub(r"(?m)^line_length\s*=.*$", f"line_length = {length:.3f}", text, count=1)
+    return re.sub(r"(?m)^lines\s*=.*$", "lines = 1", text, count=1)
+
+
+def run_child(cmd: list[str], log_file: Path, cwd: Path | None = None) -> dict[str, Any]:
+    """Run ``cmd`` (output to ``log_file``); wall and CPU seconds and peak RSS of that child alone."""
+    with open(log_file, "wb") as out:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, cwd=cwd)
+        _, status, ru = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    return {"rc": proc.returncode, "wall_s": wall, "cpu_s": ru.ru_utime + ru.ru_stime,
+            "peak_rss_MB": ru.ru_maxrss / 1e3, "command": " ".join(cmd)}
+
+
+def _tail(path: Path, n: int = 2000) -> str:
+    try:
+        return path.read_text(errors="replace")[-n:]
+    except OSError:
+        return ""
+
+
+def cached_log(cache: Path, minutes: float) -> tuple[Path, dict[str, Any] | None]:
+    """The simulated survey log for ``minutes`` (made once, then reused); the sim run, None if cached."""
+    text = scene_text(minutes)
+    key = hashlib.sha1(text.encode()).hexdigest()[:10]
+    cache.mkdir(parents=True, exist_ok=True)
+    log = cache / f"survey-{minutes:g}min-{key}.mcap"
+    if log.is_file():
+        return log, None
+    scene = cache / f"survey-{minutes:g}min-{key}.toml"
+    scene.write_text(text)
+    partial = log.with_suffix(".partial.mcap")  # renamed when whole: a killed run is never reused
+    sim = run_child([*_auvlink(), "sim", "--scene", str(scene), "--out", str(partial), "--quiet"],
+                    cache / "sim.log")
+    if sim["rc"] != 0 or not partial.is_file():
+        raise RuntimeError(f"auvlink sim failed (rc {sim['rc']}): {_tail(cache / 'sim.log')}")
+    partial.rename(log)
+    sim["log_MB"] = log.stat().st_size / 1e6
+    return log, sim
+
+
+def log_info(log: Path, work: Path) -> dict[str, Any]:
+    """``auvlink log info LOG --json``: its run and the parts of its answer this benchmark uses."""
+    out = work / "log-info.json"
+    with open(out, "wb") as f:
+        t0 = time.perf_counter()
+        rc = subprocess.run([*_auvlink(), "log", "info", str(log), "--json"], stdout=f,
+                            stderr=subprocess.DEVNULL, check=False).returncode
+        wall = time.perf_counter() - t0
+    info: dict[str, Any] = {}
+    if rc == 0:
+        try:
+            info = json.loads(out.read_text())
+        except ValueError:
+            info = {}
+    return {"rc": rc, "wall_s": wall, "duration_s": info.get("duration_s"),
+            "message_count": info.get("message_count"), "size_MB": log.stat().st_size / 1e6,
+            "frames": {k: v.get("count") for k, v in (info.get("channels") or {}).items() if isinstance(v, dict)}}
+
+
+def numbers(d: Any, prefix: str = "") -> dict[str, float]:
+    """Every number in a (nested) dict, keys joined with '.' (bools and non-numbers left out)."""
+    out: dict[str, float] = {}
+    if isinstance(d, dict):
+        for k, v in d.items():
+            key = f"{prefix}{k}"
+            if isinstance(v, bool):
+                continue
+            if isinstance(v, int | float):
+                out[key] = float(v)
+            elif isinstance(v, dict):
+                out.update(numbers(v, key + "."))
+    return out
+
+
+def read_summary(out: Path) -> dict[str, Any]:
+    """What the pipeline's ``summary.json`` says: its keys, timings (s), scores, detections."""
+    path = out / "summary.json"
+    if not path.is_file():
+        return {"summary_found": False}
+    try:
+        summary = json.loads(path.read_text())
+    except ValueError as exc:
+        return {"summary_found": False, "summary_error": str(exc)}
+    if not isinstance(summary, dict):
+        return {"summary_found": False, "summary_error": f"not an object: {type(summary).__name__}"}
+    timings = {k: v for k, v in numbers(summary.get("timings", {})).items()}
+    if not timings:  # another layout: any top-level number named like a duration
+        timings = {k: v for k, v in numbers(summary).items() if k.endswith(("_s", "seconds"))}
+    scores = numbers(summary.get("scores", {}))
+    det = summary.get("detections")
+    return {"summary_found": True, "summary_keys": sorted(summary), "timings": timings, "scores": scores,
+            "detections": det if isinstance(det, int) else (len(det) if isinstance(det, list) else None),
+            "recon": numbers(summary.get("recon", {}))}
+
+
+def _score(scores: dict[str, float], *words: str) -> float | None:
+    for k, v in scores.items():
+        if all(w in k for w in words):
+            return v
+    return None
+
+
+def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
+    mode = "smoke" if smoke() else "quick" if quick else "full"
+    minutes = MINUTES[mode]
+    out_dir.mkdir(parents=True, exist_ok=True)
+    work = out_dir / "e2e-work"
+    work.mkdir(exist_ok=True)
+    t_start = time.perf_counter()
+    log, sim = cached_log(out_dir / "e2e-cache", minutes)
+    info = log_info(log, work)
+    replay_dir = out_dir / "e2e-replay"
+    shutil.rmtree(replay_dir, ignore_errors=True)
+    help_text = subprocess.run([*_auvlink(), "replay", "--help"], capture_output=True, text=True,
+                               check=False).stdout
+    cmd = [*_auvlink(), "replay", str(log), "--out", str(replay_dir), "--fast"]
+    cmd += ["--quiet"] if "--quiet" in help_text else []
+    replay = run_child(cmd, work / "replay.log")
+    if replay["rc"] != 0:
+        raise RuntimeError(f"auvlink replay failed (rc {replay['rc']}): {_tail(work / 'replay.log')}")
+    summary = read_summary(replay_dir)
+    mission_s = float(info["duration_s"] or minutes * 60.0)
+    x_rt = mission_s / replay["wall_s"]
+    scores = summary.get("scores", {})
+    timings: dict[str, float] = summary.get("timings", {})
+    decode_s = next((v for k, v in timings.items() if "replay" in k or "decode" in k), None)
+
+    rows: list[dict[str, Any]] = []
+    if sim is not None:
+        rows.append({"step": "auvlink sim (not cached)", "seconds": sim["wall_s"], "peak_rss_MB": sim["peak_rss_MB"]})
+    rows.append({"step": "auvlink log info", "seconds": info["wall_s"]})
+    rows.append({"step": "auvlink replay --fast (whole process)", "seconds": replay["wall_s"],
+                 "x_realtime": x_rt, "peak_rss_MB": replay["peak_rss_MB"]})
+    rows += [{"step": f"  summary timings: {k}", "seconds": v,
+              "x_realtime": mission_s / v if v > 0 and ("replay" in k or "decode" in k) else None}
+             for k, v in timings.items()]
+    demo: dict[str, Any] | None = None
+    if mode != "smoke":
+        demo_dir = out_dir / "e2e-demo"
+        shutil.rmtree(demo_dir, ignore_errors=True)
+        demo = run_child([*_auvlink(), "demo", "--out", str(demo_dir)], work / "demo.log")
+        demo["ok"] = demo["rc"] == 0 and demo["wall_s"] <= GOAL_DEMO_S
+        rows.append({"step": "auvlink demo (shipped scene)", "seconds": demo["wall_s"],
+                     "peak_rss_MB": demo["peak_rss_MB"]})
+    print(table(rows, ["step", "seconds", "x_realtime", "peak_rss_MB"]))
+    det_p, det_r = _score(scores, "detection", "precision"), _score(scores, "detection", "recall")
+    cls_p, cls_r = _score(scores, "classification", "precision"), _score(scores, "classification", "recall")
+    print(f"mission {mission_s:.0f} s ({info['message_count']} messages, {info['size_MB']:.0f} MB log): replay "
+          f"end to end {replay['wall_s']:.1f} s = {x_rt:.1f}x real time (goal >= {GOAL_X_REALTIME:.0f}x); "
+          f"peak RSS {replay['peak_rss_MB']:.0f} MB")
+    if det_p is not None:
+        print(f"detections {summary.get('detections')}: detection P/R {det_p:.2f}/{det_r or 0:.2f}, "
+              f"classification P/R {cls_p or 0:.2f}/{cls_r or 0:.2f}")
+    if not summary.get("summary_found"):
+        print(f"summary.json not found or unreadable in {replay_dir}: {summary.get('summary_error', '')}")
+    else:
+        print(f"summary.json keys: {', '.join(summary['summary_keys'])}")
+    load = os.getloadavg()[0]
+    print(f"load average {load:.2f} on {os.cpu_count()} cores")
+    result: dict[str, Any] = {
+        "mode": mode, "mission_s": mission_s, "log": str(log), "log_MB": info["size_MB"],
+        "log_cached": sim is None, "sim": sim, "log_info": info,
+        "replay": replay, "wall_s": replay["wall_s"], "x_realtime": x_rt, "peak_rss_MB": replay["peak_rss_MB"],
+        "replay_decode_s": decode_s,
+        "replay_decode_x_realtime": mission_s / decode_s if decode_s else None,
+        "stage_timings_s": timings, "scores": scores,
+        "detection_precision": det_p, "detection_recall": det_r,
+        "classification_precision": cls_p, "classification_recall": cls_r,
+        "detections": summary.get("detections"), "recon": summary.get("recon", {}),
+        "summary_found": summary.get("summary_found", False), "summary_keys": summary.get("summary_keys", []),
+        "goal_x_realtime": GOAL_X_REALTIME, "ok": x_rt >= GOAL_X_REALTIME,
+        "seconds_per_30_min": replay["wall_s"] * 1800.0 / mission_s,
+        "demo": demo, "load_average_1min": load, "elapsed_s": time.perf_counter() - t_start,
+    }
+    write_json(out_dir, "e2e", result)
+    return result
+
+
+if __name__ == "__main__":
+    from _common import script_main
+
+    script_main(run, __doc__)
