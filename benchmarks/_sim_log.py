@@ -42,8 +42,8 @@ def survey_scene_text(minutes: float) -> str:
     return text.replace("[survey]", "\n".join(extra) + "\n[survey]") if extra else text
 
 
-def run_log(quick: bool = True) -> dict[str, Any]:
-    minutes = 3.0 if quick else 30.0
+def run_log(quick: bool = True, minutes: float | None = None) -> dict[str, Any]:
+    minutes = minutes if minutes is not None else 3.0 if quick else 30.0
     with tempfile.TemporaryDirectory(prefix="auvlink-bench-sim-") as tmp:
         scene_path = Path(tmp) / "survey.toml"
         scene_path.write_text(survey_scene_text(minutes))

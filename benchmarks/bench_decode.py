@@ -3,6 +3,9 @@
 Run: ``auvlink bench decode --out DIR`` (or ``python benchmarks/bench_decode.py --out DIR``).
 PD0 is measured on the real capture RDI_withBT.000 (../shared/data) through the framer and the
 codec, per frame and through the bulk (vectorized) path; dolfyn reads the same file in its own venv.
+``peers`` (docs/HELPERS.md contract): seconds per read of the whole file, ours (per-frame codec, bulk)
+against dolfyn, ``ratio = dolfyn / ours``. Smoke mode (``AUVLINK_BENCH_SMOKE=1``): one repeat each,
+fewer sonar and gyro frames.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import best_time, script_main, table, write_json
+from _common import best_time, script_main, smoke, table, write_json
 
 from auvlink import formats
 from auvlink.decode_file import decode_bytes
@@ -29,7 +32,7 @@ def _pd0(quick: bool) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     data = path.read_bytes()
     fmt = formats.get("pd0")
     n = decode_bytes(data, fmt, lambda r: None).records
-    repeat = 3 if quick else 7
+    repeat = 1 if smoke() else 3 if quick else 7
     t_frame = best_time(lambda: decode_bytes(data, fmt, lambda r: None), repeat)
     rows = [{"what": "pd0 framer+decode (auvlink)", "items": n, "seconds": t_frame, "per_s": n / t_frame}]
     extra: dict[str, Any] = {}
@@ -40,7 +43,7 @@ def _pd0(quick: bool) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     if decode_file_bulk is not None:
         t_bulk = best_time(lambda: decode_file_bulk(data), repeat)
         rows.append({"what": "pd0 bulk decode (auvlink)", "items": n, "seconds": t_bulk, "per_s": n / t_bulk})
-    peer, reason = peer_dolfyn.time_dolfyn(path, repeat=2 if quick else 5)
+    peer, reason = peer_dolfyn.time_dolfyn(path, repeat=1 if smoke() else 2 if quick else 5)
     if peer is None:
         extra["dolfyn"] = f"skipped: {reason}"
     else:
@@ -48,6 +51,10 @@ def _pd0(quick: bool) -> tuple[list[dict[str, Any]], dict[str, Any]]:
                      "seconds": peer["seconds"], "per_s": peer["ensembles"] / peer["seconds"]})
         for row in rows[:-1]:
             row["x_dolfyn"] = row["per_s"] / rows[-1]["per_s"]
+        extra["peers"] = [{"what": f"PD0 decode of {path.name} ({n} ensembles)", "ours": row["what"],
+                           "ours_s": row["seconds"], "peer": f"dolfyn {peer['version']} dolfyn.read",
+                           "peer_s": peer["seconds"], "ratio": peer["seconds"] / row["seconds"]}
+                          for row in rows[:-1]]
     return rows, extra
 
 
@@ -58,7 +65,7 @@ def _sonar(quick: bool) -> list[dict[str, Any]]:
         data = aris_path.read_bytes()
         fmt = formats.get("aris")
         n = decode_bytes(data, fmt, lambda r: None).records
-        reps = 20 if quick else 100
+        reps = 2 if smoke() else 20 if quick else 100
         t = best_time(lambda: [decode_bytes(data, fmt, lambda r: None) for _ in range(reps)], 3) / reps
         rows.append({"what": "aris file decode (48x2000)", "items": n, "seconds": t, "per_s": n / t})
     try:
@@ -86,10 +93,11 @@ def _small(quick: bool) -> list[dict[str, Any]]:
     except ImportError:
         return rows
     frames = [dsp1760.encode(dsp1760.build(gyro=(1e-4, 2e-4, 3e-4), accel=(0.0, 0.0, -1.0),
-                                           sequence=i % 128, temperature_c=25)) for i in range(20000)]
+                                           sequence=i % 128, temperature_c=25))
+              for i in range(2000 if smoke() else 20000)]
     stream = b"".join(frames)
     fmt = formats.get("dsp1760")
-    t = best_time(lambda: decode_bytes(stream, fmt, lambda r: None), 3)
+    t = best_time(lambda: decode_bytes(stream, fmt, lambda r: None), 1 if smoke() else 3)
     rows.append({"what": "dsp1760 framer+decode", "items": len(frames), "seconds": t,
                  "per_s": len(frames) / t})
     return rows
@@ -100,9 +108,10 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     pd0_rows, extra = _pd0(quick)
     rows = pd0_rows + _sonar(quick) + _small(quick)
     print(table(rows, ["what", "items", "seconds", "per_s", "x_dolfyn"]))
+    peers = extra.pop("peers", [])
     for key, msg in extra.items():
         print(f"{key}: {msg}")
-    result = {"rows": rows, "notes": extra, "elapsed_s": time.perf_counter() - t0}
+    result = {"rows": rows, "peers": peers, "notes": extra, "elapsed_s": time.perf_counter() - t0}
     write_json(out_dir, "decode", result)
     return result
 

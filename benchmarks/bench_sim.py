@@ -11,8 +11,15 @@ Run: ``auvlink bench sim --out DIR`` (or ``python benchmarks/bench_sim.py --out 
   seabed (first return per beam against the exact range, in bins; the steepest ray is always cast,
   so it is 0 or 1 by construction) and the highlight error (per beam, nearest object return against
   the reference, m) that the highlight extension inherits.
+- Range bins sweep (128, 256, 512, 1024 at K = 32): time per rendered frame against the highlight
+  range error after binning (bin-centre range of the nearest object return against the exact
+  K = 512 range).
+- ``tradeoffs`` (K, range bins: seconds per frame with objects in view against the highlight error),
+  ``peers`` (culling ``rays`` against ``none``, objects in view and seabed only) and ``stability``
+  (the culled images are byte-identical to the unculled ones) in the JSON contract of docs/HELPERS.md.
 - Log generation (:mod:`_sim_log`): a 3-minute (``--full``: 30-minute) survey at 10 fps with every
   device simulated into one MCAP log, in wall and CPU seconds (goal: 30 minutes in <= 60 s).
+- Smoke mode (``AUVLINK_BENCH_SMOKE=1``): 8 frames per kind, one repeat, every 8th survey pose probed.
 """
 
 from __future__ import annotations
@@ -25,19 +32,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import best_time, script_main, table, write_json
+from _common import best_time, script_main, smoke, table, write_json
 from _sim_log import run_log
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.scene import Scene, load_default_scene
+from auvlink.sim.sonar_geometry import SonarGeometry
 from auvlink.sim.sonar_render import OBJECT, SonarRenderer
 from auvlink.sim.trajectory import LawnmowerTrajectory
 
 
-def _frames(scene: Scene, n: int) -> dict[str, tuple[np.ndarray, Rotation]]:
-    """Poses of up to ``n`` survey frames with an object in view, and ``n`` without."""
+def _frames(scene: Scene, n: int, stride: int = 1) -> dict[str, tuple[np.ndarray, Rotation]]:
+    """Poses of up to ``n`` survey frames with an object in view, and ``n`` without (every
+    ``stride``-th frame of the survey probed)."""
     tr = LawnmowerTrajectory.from_scene(scene)
-    pose = tr.true_pose(np.arange(0.0, tr.duration, 1.0 / scene.sonar.fps))
+    pose = tr.true_pose(np.arange(0.0, tr.duration, stride / scene.sonar.fps))
     probe = SonarRenderer(scene, cull="none", speckle=False)
     mats = pose.rotation().as_matrix()
     seen = np.array([(probe.trace_matrix(p, m).kind == OBJECT).any()
@@ -107,10 +116,9 @@ def _nearest_object(rd: SonarRenderer, pos: np.ndarray, mats: np.ndarray) -> np.
 
 
 def _k_sweep(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]],
-             repeat: int) -> list[dict[str, Any]]:
+             repeat: int, ref: np.ndarray) -> list[dict[str, Any]]:
     pos, rot = frames["objects in view"]
     mats = rot.as_matrix()
-    ref = _nearest_object(SonarRenderer(scene, rays_per_beam=512, speckle=False), pos, mats)
     rows = []
     for k in (8, 16, 32, 64):
         rd = SonarRenderer(scene, rays_per_beam=k)
@@ -128,12 +136,72 @@ def _k_sweep(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]],
     return rows
 
 
+def _bins_sweep(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]], repeat: int,
+                ref: np.ndarray) -> list[dict[str, Any]]:
+    """Range bins against the binned highlight range error (K = 32, objects in view)."""
+    pos, rot = frames["objects in view"]
+    mats = rot.as_matrix()
+    rows = []
+    for nb in (128, 256, 512, 1024):
+        rd = SonarRenderer(scene)
+        rd.geometry = SonarGeometry(scene.sonar, rd.geometry.k, n_bins=nb)
+        g = rd.geometry
+        near = _nearest_object(rd, pos, mats)
+        both = np.isfinite(ref) & np.isfinite(near)
+        b = g.bin_of_range(np.where(both, near, np.inf))
+        binned = np.where(b >= 0, g.range_of_bin[np.maximum(b, 0)], np.nan)
+        ok = both & np.isfinite(binned)
+        fps = _fps(rd, frames["objects in view"], repeat)
+        rows.append({"n_bins": nb, "bin_m": g.bin_width, "fps_objects": fps,
+                     "highlight_err_m": float(np.abs(binned - ref)[ok].mean())})
+    return rows
+
+
+def _culling(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]]) -> dict[str, Any]:
+    """Are the images of every culling mode byte-identical on the benchmark frames?"""
+    out: dict[str, Any] = {}
+    for view, (pos, rot) in frames.items():
+        imgs = {c: list(SonarRenderer(scene, cull=c).render_sequence(pos, rot, seed=1))
+                for c in ("rays", "objects", "none")}
+        same = all(np.array_equal(a, b) for c in ("objects", "none")
+                   for a, b in zip(imgs["rays"], imgs[c], strict=True))
+        out[view] = {"frames": len(pos), "identical": same}
+    return out
+
+
+def _contract(rows: list[dict[str, Any]], sweep: list[dict[str, Any]], bins: list[dict[str, Any]],
+              identical: dict[str, Any], default_k: int) -> dict[str, list[dict[str, Any]]]:
+    """The ``tradeoffs``, ``peers`` and ``stability`` lists of docs/HELPERS.md."""
+    trade = [{"knob": "rays per beam K", "setting": r["K"], "time_s": 1.0 / r["fps_objects"],
+              "time_unit": "frame (objects in view)", "error": r["highlight_err_m"],
+              "error_name": "highlight range error vs K=512 [m]", "default": r["K"] == default_k}
+             for r in sweep]
+    trade += [{"knob": "range bins", "setting": r["n_bins"], "time_s": 1.0 / r["fps_objects"],
+               "time_unit": "frame (objects in view)", "error": r["highlight_err_m"],
+               "error_name": "binned highlight range error vs exact [m]", "default": r["n_bins"] == 512}
+              for r in bins]
+    peers = []
+    for view in ("objects in view", "seabed only"):
+        by = {r["cull"]: r for r in rows if r["frames"] == view and r["seabed"] == "sloped rough"}
+        ours, peer = 1.0 / by["rays"]["fps"], 1.0 / by["none"]["fps"]
+        peers.append({"what": f"sonar simulation per frame, {view}", "ours": "cull=rays (scene culling)",
+                      "ours_s": ours, "peer": "cull=none (every ray cast)", "peer_s": peer,
+                      "ratio": peer / ours, "identical": identical[view]["identical"]})
+    stab = [{"case": f"sim: culled images byte-identical to unculled ({view}, {v['frames']} frames, "
+                     "modes rays/objects/none)", "ok": bool(v["identical"]),
+             "detail": "identical bytes" if v["identical"] else "images differ between culling modes"}
+            for view, v in identical.items()]
+    return {"tradeoffs": trade, "peers": peers, "stability": stab}
+
+
 def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
     t0 = time.perf_counter()
     load_before = os.getloadavg()
     scene = load_default_scene()
-    n, repeat = (150, 3) if quick else (600, 5)
-    frames = _frames(scene, n)
+    n, repeat, stride = (150, 3, 1) if quick else (600, 5, 1)
+    if smoke():
+        n, repeat, stride = 8, 1, 8
+    frames = _frames(scene, n, stride)
     flat = replace(scene, seabed=replace(scene.seabed, slope_deg=0.0, roughness=0.0))
     rows = []
     for view, fr in frames.items():
@@ -150,13 +218,22 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
                  "fps_cpu": _fps_cpu(rd_flat, frames["seabed only"], repeat),
                  "trace_us": trace_us, "image_us": image_us})
     print(table(rows, ["frames", "seabed", "cull", "n", "fps", "fps_cpu", "trace_us", "image_us"]))
-    sweep = _k_sweep(scene, frames, repeat)
+    pos, rot = frames["objects in view"]
+    ref = _nearest_object(SonarRenderer(scene, rays_per_beam=512, speckle=False), pos, rot.as_matrix())
+    sweep = _k_sweep(scene, frames, repeat, ref)
     print()
     print(table(sweep, ["K", "rays", "fps_objects", "fps_seabed", "onset_err_bins", "highlight_err_m",
                         "beams_missed"]))
+    bins = _bins_sweep(scene, frames, repeat, ref)
+    print()
+    print(table(bins, ["n_bins", "bin_m", "fps_objects", "highlight_err_m"]))
+    identical = _culling(scene, frames)
+    contract = _contract(rows, sweep, bins, identical, scene.sonar.rays_per_beam)
+    print()
+    print(table(contract["peers"], ["what", "ours_s", "peer_s", "ratio", "identical"]))
     k32 = {r["frames"]: r for r in rows if r["cull"] == "rays" and r["seabed"] == "sloped rough"}
     result = {
-        "rows": rows, "k_sweep": sweep, "goal_fps": 400.0,
+        "rows": rows, "k_sweep": sweep, "bins_sweep": bins, "goal_fps": 400.0, **contract,
         "fps_k32_objects": k32["objects in view"]["fps"], "fps_k32_seabed": k32["seabed only"]["fps"],
         "fps_cpu_k32_objects": k32["objects in view"]["fps_cpu"],
         "fps_cpu_k32_seabed": k32["seabed only"]["fps_cpu"],
@@ -166,7 +243,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
           f"{result['fps_k32_seabed']:.0f} seabed only (goal 400); per CPU time "
           f"{result['fps_cpu_k32_objects']:.0f} and {result['fps_cpu_k32_seabed']:.0f}; "
           f"load average {load_before[0]:.1f}")
-    result["log"] = run_log(quick)
+    result["log"] = run_log(quick, minutes=1.0 if smoke() else None)
     result["elapsed_s"] = time.perf_counter() - t0
     write_json(out_dir, "sim", result)
     return result

@@ -86,6 +86,9 @@ def dbscan_labels(points: ArrayLike, eps: float, min_points: int,
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if p.shape[0] == 0:
         return np.zeros(0, np.int64)
+    if not np.all(np.isfinite(p)):  # one NaN would poison the mean below and silently lose every cluster
+        bad = ~np.isfinite(p).all(axis=1)
+        raise ReconError(f"cannot cluster {int(bad.sum())} non-finite point(s) (first at index {int(np.argmax(bad))})")
     local = p - p.mean(axis=0)  # keep the neighbour search well conditioned far from the origin
     if backend == "sklearn":
         from sklearn.cluster import DBSCAN

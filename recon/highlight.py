@@ -172,7 +172,9 @@ def project(geometry: SonarGeometry, frame: I64, beam: I64, row: I64, positions:
         dirs = geometry.directions_body(phi, geometry.azimuths[beam]).astype(dt)
     p_b = r[:, None] * dirs + geometry.mounting.lever.astype(dt)
     mats = rotations.as_matrix().reshape(-1, 3, 3).astype(dt)[frame]
-    pos = np.asarray(positions, dtype=dt).reshape(-1, 3)[frame]
+    # the offsets from the vehicle in ``dtype``, the world position in float64: float32 world coordinates
+    # lose mm far from the origin (6 cm at 1e6 m)
+    pos = np.asarray(positions, dtype=np.float64).reshape(-1, 3)[frame]
     return np.einsum("nij,nj->ni", mats, p_b) + pos
 
 

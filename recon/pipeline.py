@@ -113,6 +113,8 @@ class Reconstructor:
         if imgs.dtype != np.uint8 or imgs.shape != (ts.size, g.n_bins, g.n_beams):
             raise GeometryError(f"expected uint8 frames {(ts.size, g.n_bins, g.n_beams)}, "
                                 f"got {imgs.dtype} {imgs.shape}")
+        if ts.size == 0:  # an empty batch (e.g. the tail of a replay): nothing to add
+            return 0
         pos, rot = self.poses.pose_at(ts)
         check_attitude(rot)
         alt = self.poses.altitude_at(ts)

@@ -1,8 +1,13 @@
-"""``auvlink bench [STAGE ...] --out DIR [--full] [--json]``: run the benchmark scripts.
+"""``auvlink bench [STAGE ...] --out DIR [--full|--smoke] [--json] [--report-only]``: run the benchmarks.
 
 Each stage is a script ``benchmarks/bench_<stage>.py`` in the repository with
 ``run(quick: bool, out_dir: Path) -> dict``; it prints its own table and writes ``<stage>.json``.
-This command runs the chosen stages (all by default), then writes ``DIR/results.json``.
+This command runs the chosen stages (all by default), merges them into ``DIR/results.json`` (stages
+of an earlier run into the same folder are kept), then renders ``DIR/bench.html`` with its PNG plots
+(``benchmarks/report.py``). A stage that raises is recorded with its error, the others still run,
+and the exit code is 1. ``--smoke`` sets ``AUVLINK_BENCH_SMOKE=1``: every stage shrinks its inputs
+(the CI run, well under two minutes; figures not to be quoted). ``--report-only`` re-renders the
+report from an existing ``results.json``.
 """
 
 from __future__ import annotations
@@ -10,8 +15,11 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import os
+import shlex
 import sys
 import time
+import traceback
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -19,7 +27,7 @@ from typing import Any
 from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import to_jsonable
 
-STAGES = ("decode", "log", "sim", "recon", "classify", "e2e")
+STAGES = ("decode", "log", "sim", "recon", "classify", "e2e", "stability")
 
 
 def benchmarks_dir() -> Path:
@@ -28,12 +36,16 @@ def benchmarks_dir() -> Path:
 
 
 def load_stage(stage: str) -> ModuleType:
-    path = benchmarks_dir() / f"bench_{stage}.py"
+    return _load(f"bench_{stage}", f"no benchmark for stage {stage!r}")
+
+
+def _load(name: str, what: str) -> ModuleType:
+    path = benchmarks_dir() / f"{name}.py"
     if not path.is_file():
-        raise AuvlinkError(f"no benchmark for stage {stage!r} ({path} is missing)")
+        raise AuvlinkError(f"{what} ({path} is missing)")
     if str(path.parent) not in sys.path:  # the scripts import their helpers (_common, peers) by name
         sys.path.insert(0, str(path.parent))
-    spec = importlib.util.spec_from_file_location(f"auvlink_bench_{stage}", path)
+    spec = importlib.util.spec_from_file_location(f"auvlink_{name}", path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -47,24 +59,69 @@ def available_stages() -> list[str]:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("stages", nargs="*", metavar="STAGE", help=f"stages to run (default: all of {STAGES})")
     p.add_argument("--out", type=Path, default=Path("bench-out"), help="output folder (default bench-out)")
-    p.add_argument("--full", action="store_true", help="the long version (bigger inputs, more repeats)")
+    size = p.add_mutually_exclusive_group()
+    size.add_argument("--full", action="store_true", help="the long version (bigger inputs, more repeats)")
+    size.add_argument("--smoke", action="store_true",
+                      help="tiny inputs (AUVLINK_BENCH_SMOKE=1): checks that every stage still runs")
     p.add_argument("--json", action="store_true", help="print results.json on stdout at the end")
+    p.add_argument("--report-only", action="store_true",
+                   help="only re-render DIR/bench.html from DIR/results.json")
+
+
+def render_report(out: Path) -> Path:
+    """Render ``out/bench.html`` (and ``out/plots/``) from ``out/results.json``."""
+    path = out / "results.json"
+    try:
+        results = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise AuvlinkError(f"cannot read {path}: {exc}") from exc
+    report = _load("report", "no report generator")
+    html_path: Path = report.render(results, out)
+    return html_path
+
+
+def _machine() -> dict[str, Any]:
+    common = _load("_common", "no benchmark helpers")
+    info: dict[str, Any] = common.machine()
+    return info
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.report_only:
+        print(f"report: {render_report(args.out)}")
+        return 0
     stages = args.stages or available_stages()
     for stage in stages:
         if stage not in STAGES:
             raise AuvlinkError(f"unknown benchmark stage {stage!r}; choose from {', '.join(STAGES)}")
+    if args.smoke:
+        os.environ["AUVLINK_BENCH_SMOKE"] = "1"
+    mode = "smoke" if args.smoke else "full" if args.full else "quick"
     args.out.mkdir(parents=True, exist_ok=True)
-    results: dict[str, Any] = {"quick": not args.full, "stages": {}}
+    t_start = time.perf_counter()
+    load_before = os.getloadavg()
+    results: dict[str, Any] = {
+        "mode": mode, "quick": not args.full,
+        "command": " ".join(["auvlink bench", *args.stages, "--out", shlex.quote(str(args.out))]
+                            + (["--full"] if args.full else []) + (["--smoke"] if args.smoke else [])),
+        "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "machine": _machine(), "loadavg_before": list(load_before), "stages": {},
+    }
+    failed = []
     for stage in stages:
-        module = load_stage(stage)
-        print(f"\n=== bench {stage} ===", flush=True)
+        print(f"\n=== bench {stage} ({mode}) ===", flush=True)
         t0 = time.perf_counter()
-        result = module.run(quick=not args.full, out_dir=args.out)
+        try:
+            result = load_stage(stage).run(quick=not args.full, out_dir=args.out)
+        except Exception as exc:  # a broken stage must not hide the others' figures
+            traceback.print_exc()
+            result = {"error": f"{type(exc).__name__}: {exc}"}
+            failed.append(stage)
         result["wall_s"] = time.perf_counter() - t0
+        result["mode"] = mode
         results["stages"][stage] = result
+    results["wall_s"] = time.perf_counter() - t_start
+    results["loadavg_after"] = list(os.getloadavg())
     path = args.out / "results.json"
     previous: dict[str, Any] = {}
     if path.is_file():
@@ -75,6 +132,12 @@ def run(args: argparse.Namespace) -> int:
     results["stages"] = {**previous, **results["stages"]}
     path.write_text(json.dumps(to_jsonable(results), indent=2, allow_nan=False) + "\n")
     print(f"\nresults: {path}")
+    print(f"report: {render_report(args.out)}")
+    print(f"{len(stages)} stage(s) in {results['wall_s']:.1f} s; load average {load_before[0]:.2f} -> "
+          f"{results['loadavg_after'][0]:.2f} on {os.cpu_count()} cores")
     if args.json:
         print(json.dumps(to_jsonable(results), allow_nan=False))
+    if failed:
+        print(f"failed stage(s): {', '.join(failed)}", file=sys.stderr)
+        return 1
     return 0

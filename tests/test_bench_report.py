@@ -1,0 +1,78 @@
+"""The benchmark report: Pareto fronts, plots and tables from a results.json structure (no stage runs)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from auvlink.cli import main
+from auvlink.cli.bench import STAGES, benchmarks_dir, render_report
+from auvlink.errors import AuvlinkError
+
+sys.path.insert(0, str(benchmarks_dir()))
+import report
+
+
+def test_pareto_front_marks_only_non_dominated_settings() -> None:
+    pts = [(1.0, 5.0), (2.0, 3.0), (3.0, 3.5), (4.0, 1.0), (2.0, 3.0), (0.5, 9.0), (5.0, 1.0)]
+    assert report.pareto_front(pts) == [True, True, False, True, True, True, False]
+    assert report.pareto_front([(1.0, 1.0)]) == [True]
+    assert report.pareto_front([]) == []
+
+
+def _results() -> dict:
+    trade = [{"knob": "rays per beam K", "setting": k, "time_s": t, "time_unit": "frame", "error": e,
+              "error_name": "highlight error [m]", "default": k == 32}
+             for k, t, e in ((8, 3e-4, 0.08), (16, 4e-4, 0.016), (32, 5e-4, 0.006), (64, 7e-4, 0.007))]
+    return {"mode": "smoke", "command": "auvlink bench --smoke", "machine": {"cpu": "test", "cores": 2},
+            "stages": {
+                "sim": {"wall_s": 1.0, "fps": 900.5, "tradeoffs": trade, "rows": [{"K": 8, "fps": 1.0}],
+                        "peers": [{"what": "culling", "ours": "rays", "ours_s": 1e-3, "peer": "none",
+                                   "peer_s": 2e-3, "ratio": 2.0}]},
+                "stability": {"wall_s": 2.0, "stability": [{"case": "a <b>", "ok": True, "detail": "fine"},
+                                                           {"case": "b", "ok": False, "detail": "broke"}],
+                              "plots": [{"title": "growth", "x": [1, 10, 100], "loglog": True,
+                                         "series": {"rms": [1, 3, 10], "theory": [1, 3.2, None]}}]},
+            }}
+
+
+def test_render_writes_every_plot_and_table(tmp_path: Path) -> None:
+    html_path = report.render(_results(), tmp_path)
+    page = html_path.read_text()
+    pngs = sorted(p.name for p in (tmp_path / "plots").glob("*.png"))
+    assert pngs == ["curve_stability_growth.png", "peers.png", "tradeoff_sim_rays_per_beam_k.png"]
+    for name in pngs:
+        assert f'data-file="plots/{name}"' in page
+        assert (tmp_path / "plots" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert page.count("data:image/png;base64,") == 3
+    assert 'id="sim"' in page and 'id="stability"' in page
+    assert "a &lt;b&gt;" in page and '<tr class="fail"><td>b</td>' in page
+    # K=64 is slower and less accurate than K=32: off the front; the others are on it
+    rows = page.split("Run time against error")[1]
+    assert rows.count("<td>yes</td></tr>") == 3
+    assert "auvlink bench --smoke" in page
+
+
+def test_cli_report_only_rerenders(tmp_path: Path) -> None:
+    (tmp_path / "results.json").write_text(json.dumps(_results()))
+    assert main(["bench", "--out", str(tmp_path), "--report-only"]) == 0
+    assert (tmp_path / "bench.html").is_file()
+    assert render_report(tmp_path) == tmp_path / "bench.html"
+    assert "stability" in STAGES
+
+
+def test_cli_rejects_unknown_stage(tmp_path: Path) -> None:
+    proc = subprocess.run([sys.executable, "-c", "import sys; from auvlink.cli import main; "
+                           "sys.exit(main(sys.argv[1:]))", "bench", "nosuch", "--out", str(tmp_path)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 1
+    assert "unknown benchmark stage 'nosuch'" in proc.stderr
+
+
+def test_missing_results_is_a_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(AuvlinkError, match=r"results\.json"):
+        render_report(tmp_path)
