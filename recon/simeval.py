@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from recon.cluster import DetectedObject
+from recon.cluster import DetectedObject, robust_centre
 from recon.pipeline import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.trajectory import Trajectory
@@ -123,7 +123,7 @@ def evaluate(frames: SimFrames, config: ReconConfig | None = None, radius: float
     err = np.full(frames.truth_xy.shape[0], np.nan)
     for i, m in enumerate(matches):
         if m:
-            pts = np.concatenate([objs[j].points for j in m])
-            err[i] = float(np.linalg.norm(pts[:, :2].mean(axis=0) - frames.truth_xy[i]))
+            c = objs[m[0]].centroid if len(m) == 1 else robust_centre(np.concatenate([objs[j].points for j in m]))
+            err[i] = float(np.linalg.norm(c[:2] - frames.truth_xy[i]))
     pts = np.concatenate([o.points for o in objs]) if objs else np.zeros((0, 3))
     return Evaluation(objs, matches, err, mesh_distance(pts, frames.meshes), rec)

@@ -1,0 +1,80 @@
+"""Numerical stability of the front-slope correction and the whole reconstruction far from the origin."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from recon.errors import GeometryError
+from recon.frames import attitude
+from recon.front_slope import arc_columns, replace_on_arcs
+from recon.pipeline import Reconstructor
+from recon.sonar_geometry import SonarGeometry
+from recon.synthetic import Box, Scene, Sphere, render
+from recon.trajectory import Trajectory
+
+D = np.deg2rad
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(0, 60), st.floats(-180, 180), st.floats(-20, 20), st.floats(-20, 20),
+       st.floats(-1e6, 1e6), st.floats(-1e6, 1e6), st.floats(0.5, 4.0))
+def test_arc_correction_finite_and_translation_invariant(tilt: float, yaw: float, pitch: float, roll: float,
+                                                         north: float, east: float, top: float) -> None:
+    g = SonarGeometry.from_degrees(tilt, 14, lever_arm=(0.6, 0.0, 0.2))
+    rot = attitude(D([yaw]), D([pitch]), D([roll]))
+    rng = np.random.default_rng(1)
+    n = 200
+    beam, row = rng.integers(0, 96, n), rng.integers(0, 512, n)
+    frame = np.zeros(n, np.int64)
+    out = {}
+    for off in ((0.0, 0.0), (north, east)):
+        pos = np.array([[off[0], off[1], 30.0]])
+        arcs = arc_columns(g, frame, beam, row, pos, rot)
+        p = arcs[:, :3] + arcs[:, 9:10] * (np.cos(g.spread / 2) * arcs[:, 3:6] + np.sin(g.spread / 2) * arcs[:, 6:9])
+        p[: n // 4, 2] -= top  # a "top" above some of the points
+        q = replace_on_arcs(p, arcs, g.spread, length=50.0, width=50.0)
+        assert np.all(np.isfinite(q))
+        # stays on its arc: same range from the sonar origin
+        moved = np.any(q != p, axis=1)
+        assert np.allclose(np.linalg.norm(q[moved] - arcs[moved, :3], axis=1), arcs[moved, 9], atol=1e-6)
+        out[off] = q - [off[0], off[1], 0.0]
+    assert np.abs(out[(0.0, 0.0)] - out[(north, east)]).max() < 1e-3
+
+
+def _run(offset: tuple[float, float], heading: float) -> list:
+    g = SonarGeometry.from_degrees(30, 14, lever_arm=(0.8, 0.0, 0.2))
+    c, s = np.cos(heading), np.sin(heading)
+    o = np.asarray(offset)
+    sc = Scene(seabed_point=(o[0], o[1], 20.0), spheres=(Sphere((*(o + [9 * c, 9 * s]), 19.5), 0.5),),
+               boxes=(Box((*(o + [17 * c - 0.3 * s, 17 * s + 0.3 * c]), 19.7), (1.2, 0.8, 0.6), heading),))
+    t = np.arange(0.0, 20.0, 0.1)
+    pos = np.column_stack([o[0] + t * c, o[1] + t * s, np.full(t.size, 15.0)])
+    z = np.zeros(t.size)
+    traj = Trajectory.from_euler(t, pos, np.full(t.size, heading), z, z, altitude=np.full(t.size, 5.0))
+    rng = np.random.default_rng(3)
+    imgs = np.stack([render(g, pos[i], traj.rotations[i], sc, rng)[0] for i in range(t.size)])
+    rc = Reconstructor(g, traj)
+    rc.add_frames(t, imgs)
+    return rc.finish()
+
+
+@pytest.mark.parametrize("heading", [D(179.9), D(-179.9), D(63.0)])
+def test_reconstruction_far_from_origin_matches_near(heading: float) -> None:
+    # offsets are multiples of the 6 m seabed tile, whose grid is anchored at the world origin
+    near, far = _run((0.0, 0.0), heading), _run((600_000.0, -999_996.0), heading)
+    assert len(near) == len(far) == 2
+    for a, b in zip(near, far, strict=True):
+        assert a.n_points == b.n_points
+        assert np.abs(b.points - [600_000.0, -999_996.0, 0.0] - a.points).max() < 1e-3
+
+
+def test_gimbal_lock_rejected_by_reconstructor() -> None:
+    g = SonarGeometry.from_degrees(30, 14)
+    t = np.array([0.0, 1.0])
+    traj = Trajectory.from_euler(t, np.zeros((2, 3)), [0.0, 0.0], [D(88.0), D(88.0)], [0.0, 0.0],
+                                 altitude=[5.0, 5.0])
+    with pytest.raises(GeometryError, match="pitch"):
+        Reconstructor(g, traj).add_frame(0.5, np.zeros((512, 96), np.uint8))
