@@ -7,7 +7,7 @@ uniform random images, so they do not compress: the worst case for the disk), DV
 FOG DSP-1760 at 100 Hz, Digiquartz pressure at 10 Hz and navigation CAN frames at 20 Hz, all
 built by the codecs' own encoders (random bytes of the right size where a codec is missing).
 ``--full``: 35 minutes of mission (the 30-minute goal, long enough for a log over 1 GB); quick: 3
-minutes.
+minutes; smoke (``AUVLINK_BENCH_SMOKE=1``): 30 s.
 
 * record: every frame through :class:`MissionLogWriter` (zstd, 4 MiB chunks, 1 s flush
   interval, fsync) as fast as it takes them; x real time = mission time / writer time (frame
@@ -32,11 +32,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import table, write_json
+from _common import smoke, table, write_json
 
 from logs_format import MissionLogReader, MissionLogWriter, Replay
 
-FULL_S, QUICK_S = 2100.0, 180.0
+FULL_S, QUICK_S, SMOKE_S = 2100.0, 180.0, 30.0
 T0 = 1_700_000_000_000_000_000
 TICK_NS = 10_000_000  # 100 Hz base tick
 SONAR_BYTES = 1024 + 96 * 512
@@ -181,17 +181,29 @@ def _record(path: Path, mission_s: float, src: Sources) -> dict[str, Any]:
             "ok": mission_s / writer_s >= 10}
 
 
-def _replay(path: Path, mission_s: float) -> dict[str, Any]:
+class GeneralPathReplay(Replay):
+    """Replay with the framers' one-whole-frame fast path switched off (every message through
+    ``Framer._extract``): the reference the fast path is measured against in the same run."""
+
+    def driver(self, msg: Any) -> Any:
+        drv = super().driver(msg)
+        if drv is not None:
+            drv.framer._whole = lambda data: None  # type: ignore[method-assign]
+        return drv
+
+
+def _replay(path: Path, mission_s: float, general_path: bool = False) -> dict[str, Any]:
     n = errors = 0
     with RssPeak() as mem:
         t0, c0 = time.perf_counter(), time.process_time()
-        with Replay(path) as rep:
+        with (GeneralPathReplay if general_path else Replay)(path) as rep:
             for _ in rep.samples():
                 n += 1
             errors = sum(d.stats.decode_errors for d in rep.drivers.values())
             framer_drops = sum(d.framer.stats.dropped_bytes for d in rep.drivers.values())
         dt, dc = time.perf_counter() - t0, time.process_time() - c0
-    return {"stage": "replay (read+frame+decode)", "mission_s": mission_s, "frames": n, "seconds": dt,
+    stage = "replay, framer general path" if general_path else "replay (read+frame+decode)"
+    return {"stage": stage, "mission_s": mission_s, "frames": n, "seconds": dt,
             "x_realtime": mission_s / dt, "cpu_s": dc, "x_realtime_cpu": mission_s / dc,
             "peak_rss_MB": mem.peak_mb, "decode_errors": errors,
             "framer_dropped_bytes": framer_drops, "goal": ">= 50x", "ok": mission_s / dt >= 50}
@@ -212,7 +224,7 @@ def _read(path: Path, mission_s: float) -> dict[str, Any]:
 
 
 def run(quick: bool = True, out_dir: Path = Path("bench-out"), keep_log: bool = False) -> dict[str, Any]:
-    mission_s = QUICK_S if quick else FULL_S
+    mission_s = SMOKE_S if smoke() else QUICK_S if quick else FULL_S
     out_dir.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix="bench-log-", dir=out_dir))
     path = work / "mission.mcap"
@@ -223,8 +235,14 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out"), keep_log: bool = 
         rows = [_record(path, mission_s, src)]
         notes = dict(src.notes)
         del src
+        with MissionLogReader(path) as log:  # warm up: import every codec before anything is timed
+            end = (log.start_ns or 0) + 2_000_000_000
+        with Replay(path, end_ns=end) as rep:
+            for _ in rep.samples():
+                pass
         rows.append(_read(path, mission_s))
         rows.append(_replay(path, mission_s))
+        rows.append(_replay(path, mission_s, general_path=True))
         log_bytes = path.stat().st_size
     finally:
         if not keep_log:
@@ -246,6 +264,9 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out"), keep_log: bool = 
         "read_x_realtime": rows[1]["x_realtime"], "peak_rss_MB": peak, "baseline_rss_MB": base_mb,
         "memory_ok": memory_ok, "load_average_1min": os.getloadavg()[0], "log_over_1GB": log_bytes >= 1e9,
         "notes": notes,
+        "peers": [{"what": "replay read+frame+decode of the whole log (CPU s)", "ours": "framer fast path",
+                   "ours_s": rows[2]["cpu_s"], "peer": "framer general path (Framer._whole off)",
+                   "peer_s": rows[3]["cpu_s"], "ratio": rows[3]["cpu_s"] / rows[2]["cpu_s"]}],
         "elapsed_s": time.perf_counter() - t0,
     }
     write_json(out_dir, "log", result)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as dt
 from array import array
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -56,29 +57,31 @@ def log_info(
     path = Path(path)
     with MissionLogReader(path) as log:
         acc: dict[str, _Acc] = {}
-        codecs: dict[str, Any] = {}
+        # per channel: its accumulator and its codec's decode (None: not decoded), looked up once
+        routes: dict[str, tuple[_Acc, Callable[[bytes], Any] | None]] = {}
         for msg in log.messages():
-            a = acc.get(msg.channel)
-            if a is None:
-                a = acc[msg.channel] = _Acc()
-            a.times.append(msg.log_time_ns)
-            a.bytes += len(msg.data)
-            if a.last_seq is not None and msg.sequence != (a.last_seq + 1) & 0xFFFFFFFF:
-                a.sequence_jumps += 1
-            a.last_seq = msg.sequence
-            if decode and msg.format is not None:
-                if msg.format not in codecs:
+            route = routes.get(msg.channel)
+            if route is None:
+                fn = None
+                if decode and msg.format is not None:
                     try:
-                        codecs[msg.format] = formats.get(msg.format).decode
+                        fn = formats.get(msg.format).decode
                     except (AuvlinkError, ImportError):
-                        codecs[msg.format] = None
-                fn = codecs[msg.format]
-                if fn is not None:
-                    try:
-                        fn(msg.data)
-                    except (AuvlinkError, ValueError) as exc:
-                        a.decode_errors += 1
-                        a.last_error = str(exc)
+                        fn = None
+                route = routes[msg.channel] = (acc.setdefault(msg.channel, _Acc()), fn)
+            a, fn = route
+            data, seq = msg.data, msg.sequence
+            a.times.append(msg.log_time_ns)
+            a.bytes += len(data)
+            if a.last_seq is not None and seq != (a.last_seq + 1) & 0xFFFFFFFF:
+                a.sequence_jumps += 1
+            a.last_seq = seq
+            if fn is not None:
+                try:
+                    fn(data)
+                except (AuvlinkError, ValueError) as exc:
+                    a.decode_errors += 1
+                    a.last_error = str(exc)
         t0, t1 = log.start_ns, log.end_ns
         channels: dict[str, Any] = {}
         for topic, info in sorted(log.channels.items()):
