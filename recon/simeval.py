@@ -13,6 +13,7 @@ surface (Open3D ``RaycastingScene.compute_distance``). ``auvlink.sim`` is import
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -127,3 +128,43 @@ def evaluate(frames: SimFrames, config: ReconConfig | None = None, radius: float
             err[i] = float(np.linalg.norm(c[:2] - frames.truth_xy[i]))
     pts = np.concatenate([o.points for o in objs]) if objs else np.zeros((0, 3))
     return Evaluation(objs, matches, err, mesh_distance(pts, frames.meshes), rec)
+
+
+def nav_drift(scene: Scene, workdir: str, duration: float | None = None) -> dict[str, Any]:
+    """Dead-reckoning error against the truth on a simulated log (the scene's noise, default sensors).
+
+    The mission is simulated into ``workdir``/nav.mcap and replayed through the pipeline's navigation
+    (framers, codecs, :func:`recon.nav.dead_reckon`); errors are horizontal, against the log's true
+    trajectory attachment, and drift is given as a fraction of the distance travelled.
+    """
+    from pathlib import Path
+
+    from auvlink.pipeline.collect import MissionData
+    from auvlink.pipeline.setup import MissionSetup, nav_config
+    from auvlink.sim.mission import simulate_to_log
+    from auvlink.sim.truth import TRAJECTORY_ATTACHMENT
+    from logs_format import MissionLogReader, Replay
+    from recon.nav import dead_reckon
+
+    log = Path(workdir) / "nav.mcap"
+    simulate_to_log(scene, log, progress=False, duration=duration, workers=1)
+    with MissionLogReader(log) as reader:
+        setup = MissionSetup.from_metadata(reader.metadata(decode_json=True))
+        truth = np.load(io.BytesIO(reader.read_attachment(TRAJECTORY_ATTACHMENT)))
+    data = MissionData()
+    with Replay(log) as replay:
+        for sample in replay.samples():
+            if sample.device != "sonar":
+                data.add(sample)
+    log.unlink()
+    traj = dead_reckon(*data.nav_inputs(), nav_config(setup))
+    t_truth = (truth["t_ns"] - (data.t0_ns or 0)) * 1e-9
+    lo, hi = max(traj.span[0], t_truth[0]), min(traj.span[1], t_truth[-1])
+    t = np.linspace(lo, hi, 2000)
+    est = traj.pose_at(t)[0]
+    tru = np.column_stack([np.interp(t, t_truth, truth[k]) for k in ("north", "east", "down")])
+    err = np.linalg.norm(est[:, :2] - tru[:, :2], axis=1)
+    dist = float(np.linalg.norm(np.diff(tru[:, :2], axis=0), axis=1).sum())
+    return {"distance_m": dist, "duration_s": float(hi - lo), "max_horizontal_error_m": float(err.max()),
+            "final_horizontal_error_m": float(err[-1]), "max_error_over_distance": float(err.max()) / dist,
+            "max_depth_error_m": float(np.abs(est[:, 2] - tru[:, 2]).max())}

@@ -87,3 +87,39 @@ def test_front_slope_correction_meets_accuracy_goal(mission: SimFrames) -> None:
     assert on.distances.mean() <= 0.05 < off.distances.mean()
     assert np.percentile(on.distances, 95) < 0.5 * np.percentile(off.distances, 95)
     assert on.distances.size == off.distances.size  # the correction moves points, it removes none
+
+
+NAV_SCENE = """seed = 5
+[seabed]
+depth = 30.0
+slope_deg = 2.0
+slope_azimuth_deg = 45.0
+roughness = 0.02
+[survey]
+pattern = "lawnmower"
+origin = [0.0, 0.0]
+heading_deg = 30.0
+line_length = 60.0
+line_spacing = 4.0
+lines = 3
+altitude = 5.0
+speed = 1.5
+[sonar]
+tilt_deg = 30.0
+spread_deg = 14.0
+window_start = 1.0
+window_length = 10.0
+fps = 1.0
+"""
+
+
+def test_navigation_drift_with_default_noise(tmp_path: object) -> None:
+    """Simulated log (default sensor noise, two turns), replayed through the codecs, dead-reckoned."""
+    from auvlink.sim.scene import loads_scene
+    from recon.simeval import nav_drift
+
+    d = nav_drift(loads_scene(NAV_SCENE), str(tmp_path))
+    assert d["distance_m"] > 180.0
+    assert d["max_error_over_distance"] <= 0.005  # measured 0.17 % over 979 m (benchmarks/bench_recon.py)
+    assert 0.0 < d["max_horizontal_error_m"]  # the noise is on
+    assert d["max_depth_error_m"] < 0.15
