@@ -25,8 +25,9 @@ def _png(fig: Figure) -> bytes:
 def survey_map(result: MissionResult) -> bytes:
     """Track (east right, north up), detections with class and score, true objects."""
     fig, ax = plt.subplots(figsize=(8, 7))
-    pos = result.trajectory.positions
-    ax.plot(pos[:, 1], pos[:, 0], "-", color="0.5", lw=1, label="navigation (dead reckoning)")
+    pos = result.track
+    if pos.size:
+        ax.plot(pos[:, 1], pos[:, 0], "-", color="0.5", lw=1, label="navigation (causal dead reckoning)")
     for t in result.setup.truth:
         ax.plot(t.position_ned[1], t.position_ned[0], "s", mfc="none", mec="tab:green", ms=12)
         ax.annotate(t.class_name, (t.position_ned[1], t.position_ned[0]), xytext=(6, -12),
@@ -71,41 +72,34 @@ def object_views(result: MissionResult, max_objects: int = 12) -> bytes | None:
     return _png(fig)
 
 
-def sonar_strip(result: MissionResult, n: int = 6) -> bytes | None:
-    """Sonar frames around the detections, with the highlight-extension returns drawn."""
-    from auvlink.pipeline.setup import sonar_geometry
+def sonar_strip(result: MissionResult) -> bytes | None:
+    """Sonar frames near the detections, with the highlight-extension returns drawn."""
+    from scipy.spatial.transform import Rotation
+
     from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows
 
-    times, images = result.data.sonar.stack()
-    if not times.size:
+    g = result.geometry
+    if not result.strip or g is None:
         return None
-    traj = result.trajectory
-    lo, hi = traj.span
-    g = sonar_geometry(result.setup, result.data.sonar.azimuths, result.data.sonar.window)
+    frames = sorted(result.strip, key=lambda f: f.t)
+    images = np.stack([f.image for f in frames])
+    pos = np.concatenate([f.position for f in frames])
+    rot = Rotation.concatenate([f.rotation for f in frames])
+    alt = np.concatenate([f.altitude for f in frames])
     hc = HighlightConfig()
-    centers = [d.t_first - result.t0 for d in result.detections] or [float(times.mean())]
-    picks = []
-    for c in centers[:n]:
-        i = int(np.argmin(np.abs(times - (c + 0.8))))
-        if lo <= times[i] <= hi and i not in picks:
-            picks.append(i)
-    if not picks:
-        return None
-    sel = np.asarray(picks)
-    pos, rot = traj.pose_at(times[sel])
-    onset = g.flat_onset_ranges(pos, rot, traj.altitude_at(times[sel]))
+    onset = g.flat_onset_ranges(pos, rot, alt)
     limits = onset_rows(g, onset, hc.margin_m)
-    thr = frame_thresholds(images[sel], int(limits.min(initial=g.n_bins)), hc)
-    fi, bi, ri = first_returns(images[sel], limits, thr, hc)
-    fig, axes = plt.subplots(1, len(sel), figsize=(2.6 * len(sel), 4.2), squeeze=False)
+    thr = frame_thresholds(images, int(limits.min(initial=g.n_bins)), hc)
+    fi, bi, ri = first_returns(images, limits, thr, hc)
+    fig, axes = plt.subplots(1, len(frames), figsize=(2.6 * len(frames), 4.2), squeeze=False)
     r = g.ranges
     for k, ax in enumerate(axes[0]):
-        ax.imshow(images[sel[k]], aspect="auto", cmap="copper", origin="lower",
+        ax.imshow(images[k], aspect="auto", cmap="copper", origin="lower",
                   extent=(-0.5, g.n_beams - 0.5, r[0], r[-1]))
         m = fi == k
         ax.plot(bi[m], r[ri[m]], ".", color="cyan", ms=3)
         ax.plot(np.arange(g.n_beams), np.clip(onset[k], r[0], r[-1]), "--", color="white", lw=0.8)
-        ax.set_title(f"t = {times[sel[k]]:.1f} s", fontsize=8)
+        ax.set_title(f"t = {frames[k].t:.1f} s", fontsize=8)
         ax.set_xlabel("beam", fontsize=7)
         if k == 0:
             ax.set_ylabel("range [m]", fontsize=7)
@@ -116,11 +110,24 @@ def sonar_strip(result: MissionResult, n: int = 6) -> bytes | None:
 
 
 def stage_timings(result: MissionResult) -> bytes:
+    """Total time per stage, and the per-item latency (p50, p99) of each streaming stage."""
     items = [(k.removesuffix("_s"), v) for k, v in result.timings.items() if k != "total_s"]
-    fig, ax = plt.subplots(figsize=(6, 2.6))
+    lat = [(k, v) for k, v in result.latency.items() if v.get("p50_ms") is not None]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 2.8), squeeze=False)
+    ax = axes[0][0]
     ax.barh([k for k, _ in items], [v for _, v in items], color="tab:blue")
     for y, (_, v) in enumerate(items):
         ax.text(v, y, f" {v:.2f} s", va="center", fontsize=8)
     ax.set_xlabel("seconds")
-    ax.set_title(f"Time per stage (total {result.timings.get('total_s', 0):.1f} s)")
+    ax.set_title(f"Time per stage (total {result.timings.get('total_s', 0):.1f} s)", fontsize=9)
+    ax = axes[0][1]
+    yl = np.arange(len(lat))
+    ax.barh(yl - 0.2, [v["p50_ms"] for _, v in lat], height=0.4, color="tab:green", label="p50")
+    ax.barh(yl + 0.2, [v["p99_ms"] for _, v in lat], height=0.4, color="tab:orange", label="p99")
+    ax.set_yticks(yl, [k for k, _ in lat])
+    ax.set_xscale("log")
+    ax.set_xlabel("ms per item (frame, poll, object, sample block)")
+    ax.set_title("Latency per stage", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
     return _png(fig)

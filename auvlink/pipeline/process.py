@@ -1,8 +1,9 @@
-"""Run the pipeline on a mission log: replay -> navigation -> reconstruction -> clusters -> classes.
+"""Run the pipeline on a mission log: replay -> the streaming engine -> detections; the result types.
 
-Replay goes through :class:`logs_format.Replay`, i.e. the same framers, codecs and driver code
-as live operation. Each stage is timed; the result carries everything the outputs and the report
-need.
+Replay goes through :class:`logs_format.Replay`, i.e. the same framers, codecs and driver code as
+live operation, and the samples through :class:`auvlink.pipeline.engine.Engine`, the engine of
+``auvlink live``. Each stage is timed; the result carries everything the outputs and the report
+need. :func:`run_log_batch` keeps the non-causal batch path as a reference for tests.
 """
 
 from __future__ import annotations
@@ -16,10 +17,9 @@ import numpy as np
 from tqdm import tqdm
 
 from auvlink.errors import AuvlinkError
-from auvlink.pipeline.collect import MissionData
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 
-FRAME_BLOCK = 64
+FRAME_BLOCK = 16  # frames per reconstruction call when replaying a log not recorded live
 
 
 def default_recon_config() -> Any:
@@ -60,96 +60,144 @@ class Detection:
                 "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud}
 
 
+@dataclass(frozen=True)
+class StripFrame:
+    """A sonar frame kept for the report, with the pose it was processed with (mission time s)."""
+
+    t: float
+    image: np.ndarray
+    position: np.ndarray  # (1, 3)
+    rotation: Any  # scipy Rotation (1)
+    altitude: np.ndarray  # (1,)
+
+
 @dataclass
 class MissionResult:
-    """Everything a run produced."""
+    """Everything a run produced (live or replay)."""
 
-    log: Path
+    log: Path | None
     setup: MissionSetup
-    data: MissionData
-    trajectory: Any
     detections: list[Detection]
+    track: np.ndarray  # (n, 3) vehicle positions, world NED
+    t0: float = 0.0  # s since the epoch of mission time 0
+    strip: list[StripFrame] = field(default_factory=list)
+    geometry: Any = None  # recon.sonar_geometry.SonarGeometry of the sonar, when it had frames
     timings: dict[str, float] = field(default_factory=dict)
+    latency: dict[str, dict[str, Any]] = field(default_factory=dict)
     replay_stats: dict[str, Any] = field(default_factory=dict)
     recon_stats: dict[str, Any] = field(default_factory=dict)
     loss: str = ""
     highlight_points: np.ndarray | None = None
+    drops: dict[str, int] = field(default_factory=dict)
+    events: list[dict[str, Any]] = field(default_factory=list)
+    mode: str = "replay"
+    engine: dict[str, Any] = field(default_factory=dict)
 
-    @property
-    def t0(self) -> float:
-        return (self.data.t0_ns or 0) * 1e-9
+
+def live_settings(meta: dict[str, dict[str, Any]]) -> tuple[dict[str, Any], int | None]:
+    """The engine settings and time origin a live run stored in its log (empty, None otherwise)."""
+    rec = meta.get(LIVE_META) or {}
+    engine = rec.get("engine") if isinstance(rec.get("engine"), dict) else {}
+    t0 = rec.get("t0_ns")
+    return dict(engine or {}), (int(t0) if t0 is not None else None)
 
 
-def _replay(log: Path, speed: float | None, progress: bool) -> tuple[MissionData, MissionSetup, dict[str, Any], str]:
+LIVE_META = "live_pipeline"
+
+
+def run_log(log: Path, *, speed: float | None = None, model: Path | None = None, classify: bool = True,
+            progress: bool = True, recon_config: Any = None, engine_config: Any = None,
+            on_detection: Any = None) -> MissionResult:
+    """The streaming engine on a log (``auvlink replay``): the same engine as ``auvlink live``.
+
+    A log written by ``auvlink live`` carries the live engine settings and time origin; they are
+    used unless ``engine_config`` is given, so the replay gives the live detections.
+    """
+    from auvlink.pipeline.engine import Engine, EngineConfig
     from logs_format import MissionLogReader, Replay
 
+    t_start = time.perf_counter()
     with MissionLogReader(log) as reader:
         meta = reader.metadata(decode_json=True)
         duration = reader.duration_s
     setup = MissionSetup.from_metadata(meta)
-    data = MissionData()
+    live_cfg, t0_ns = live_settings(meta)
+    cfg = engine_config or (EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK))
+    engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config, classify=classify, model=model,
+                    on_detection=on_detection)
+    engine.warm_up()
     replay = Replay(log, speed=speed)
     bar = tqdm(total=round(duration or 0.0, 1), unit="s", desc="replay", disable=not progress,
                leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
-    last = 0.0
-    for sample in replay.samples():
-        data.add(sample)
-        t = (sample.t_host_ns - (data.t0_ns or 0)) * 1e-9
-        if t - last >= 1.0:
-            bar.update(t - last)
-            last = t
+    last_adv = None
+    shown = 0.0
+    decode_s = 0.0
+    t_read = time.perf_counter()
+    with replay:
+        for sample in replay.samples():
+            t_ns = sample.t_host_ns
+            engine.feed(sample)
+            if last_adv is None:
+                last_adv = t_ns
+            elif t_ns - last_adv >= ADVANCE_NS:
+                decode_s += time.perf_counter() - t_read
+                engine.advance(t_ns)
+                last_adv = t_ns
+                t_read = time.perf_counter()
+                t = engine._t(t_ns)
+                if t - shown >= 1.0:
+                    bar.update(t - shown)
+                    shown = t
+        decode_s += time.perf_counter() - t_read
+        engine.finish()
+        stats = replay.stats()
+        loss = str(getattr(replay, "loss", "") or "")
     bar.close()
-    return data, setup, replay.stats(), str(getattr(replay, "loss", "") or "")
+    timings = {"replay_decode_s": decode_s, "navigation_s": engine.times.total("navigation"),
+               "reconstruction_s": engine.times.total("reconstruction"),
+               "clustering_s": engine.times.total("clustering"),
+               "classification_s": engine.times.total("classification"),
+               "total_s": time.perf_counter() - t_start}
+    return result_of(engine, log, timings, stats, loss, mode="replay")
 
 
-def run_log(log: Path, *, speed: float | None = None, model: Path | None = None, classify: bool = True,
-            progress: bool = True, recon_config: Any = None) -> MissionResult:
-    """The whole pipeline on one log (batch)."""
+ADVANCE_NS = 1_000_000_000  # replay hands samples to the engine in 1 s blocks of mission time
+
+
+def result_of(engine: Any, log: Path | None, timings: dict[str, float], stats: dict[str, Any], loss: str,
+              mode: str, drops: dict[str, int] | None = None, events: list[dict[str, Any]] | None = None
+              ) -> MissionResult:
+    return MissionResult(log=log, setup=engine.setup, detections=engine.detections, track=engine.track(),
+                         t0=(engine.t0_ns or 0) * 1e-9, strip=engine.strip, geometry=engine.geometry,
+                         timings=timings, latency=engine.times.summary(), replay_stats=stats,
+                         recon_stats=engine.recon_stats(), loss=loss, highlight_points=engine.highlight_points(),
+                         drops=dict(drops or {}), events=list(events or []), mode=mode,
+                         engine=engine.config.to_dict())
+
+
+def run_log_batch(log: Path, *, recon_config: Any = None) -> tuple[list[Any], Any]:
+    """Reference for tests: the whole mission dead-reckoned at once (non-causal), reconstructed in
+    blocks and clustered at the end; returns (objects, trajectory). No classification."""
+    from auvlink.pipeline.collect import MissionData
+    from logs_format import MissionLogReader, Replay
     from recon.nav import dead_reckon
     from recon.pipeline import Reconstructor
 
-    timings: dict[str, float] = {}
-    t0 = time.perf_counter()
-    data, setup, replay_stats, loss = _replay(log, speed, progress)
-    timings["replay_decode_s"] = time.perf_counter() - t0
+    with MissionLogReader(log) as reader:
+        setup = MissionSetup.from_metadata(reader.metadata(decode_json=True))
+    data = MissionData()
+    with Replay(log) as replay:
+        for sample in replay.samples():
+            data.add(sample)
     if len(data.dvl_t) < 2 or len(data.gyro_t) < 2 or not data.depth_t:
-        raise AuvlinkError(f"{log}: not enough navigation to process (DVL {len(data.dvl_t)}, gyro "
-                           f"{len(data.gyro_t)}, pressure {len(data.depth_t)} samples)")
-    t1 = time.perf_counter()
+        raise AuvlinkError(f"{log}: not enough navigation to process")
     traj = dead_reckon(*data.nav_inputs(), nav_config(setup))
-    timings["navigation_s"] = time.perf_counter() - t1
-    t2 = time.perf_counter()
     times, images = data.sonar.stack()
-    geometry = sonar_geometry(setup, data.sonar.azimuths, data.sonar.window)
+    rec = Reconstructor(sonar_geometry(setup, data.sonar.azimuths, data.sonar.window), traj,
+                        recon_config or default_recon_config())
     lo, hi = traj.span
-    inside = (times >= lo) & (times <= hi)
-    rec = Reconstructor(geometry, traj, recon_config or default_recon_config())
-    idx = np.flatnonzero(inside)
-    for k in tqdm(range(0, idx.size, FRAME_BLOCK), desc="recon", unit="block", disable=not progress, leave=False):
+    idx = np.flatnonzero((times >= lo) & (times <= hi))
+    for k in range(0, idx.size, FRAME_BLOCK):
         sel = idx[k : k + FRAME_BLOCK]
         rec.add_frames(times[sel], images[sel])
-    objects = rec.finish()
-    timings["reconstruction_s"] = time.perf_counter() - t2
-    t3 = time.perf_counter()
-    labels: list[tuple[str, float]] = [("unknown", 0.0)] * len(objects)
-    if classify and objects:
-        from classify.infer import Classifier
-
-        clf = Classifier.load(model)
-        labels = clf.classify_many([o.points for o in objects])
-    timings["classification_s"] = time.perf_counter() - t3
-    epoch = (data.t0_ns or 0) * 1e-9
-    dets = [
-        Detection(id=i, class_name=c, score=float(s), position_ned=tuple(map(float, o.centroid)),  # type: ignore[arg-type]
-                  size=tuple(map(float, o.size)), n_points=int(o.n_points),  # type: ignore[arg-type]
-                  t_first=epoch + float(o.t_first), t_last=epoch + float(o.t_last), points=o.points)
-        for i, (o, (c, s)) in enumerate(zip(objects, labels, strict=True))
-    ]
-    recon_stats = {"frames": rec.frames, "frames_in_nav_span": int(idx.size), "frames_total": int(times.size),
-                   "frames_with_points": rec.frames_with_points, "points": rec.points_total,
-                   "seabed_removed": rec.seabed_removed, "front_slope_removed": rec.front_slope_removed,
-                   "objects": len(objects)}
-    timings["total_s"] = time.perf_counter() - t0
-    return MissionResult(log=log, setup=setup, data=data, trajectory=traj, detections=dets, timings=timings,
-                         replay_stats=replay_stats, recon_stats=recon_stats, loss=loss,
-                         highlight_points=rec.raw_points)
+    return rec.finish(), traj

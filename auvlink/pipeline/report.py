@@ -54,7 +54,8 @@ def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) 
         f"<!doctype html><html><head><meta charset='utf-8'><title>auvlink report</title><style>{_CSS}</style>"
         "</head><body>",
         "<h1>auvlink mission report</h1>",
-        f"<p>Log <code>{html.escape(str(result.log))}</code>; auvlink {__version__}; written "
+        f"<p>{html.escape(result.mode)}; log <code>{html.escape(str(result.log))}</code>; "
+        f"auvlink {__version__}; written "
         f"{dt.datetime.now(dt.UTC).strftime('%Y-%m-%d %H:%M UTC')}.</p>",
         "<h2>Survey map</h2>", _img(plots.survey_map(result), "survey map"),
         "<h2>Detections</h2>", _table(det_rows),
@@ -62,8 +63,13 @@ def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) 
         "<h2>Object point clouds</h2>", _img(plots.object_views(result), "object point clouds"),
         "<h2>Sonar frames</h2>", _img(plots.sonar_strip(result), "sonar frames"),
         "<h2>Timing per stage</h2>", _img(plots.stage_timings(result), "timing"),
+        _table([{"stage": k, **v} for k, v in result.latency.items()]),
         "<h2>Devices: frames, drops and errors</h2>", _table(dev_rows),
-        "<h2>Reconstruction</h2>", _table([result.recon_stats]),
+        f"<p>Dropped ({html.escape(result.mode)}): "
+        f"{html.escape(', '.join(f'{k} {v}' for k, v in result.drops.items()) or 'nothing')}</p>",
+        "<h3>Events (port gaps, reopenings, errors)</h3>", _table(result.events[:200]),
+        "<h2>Reconstruction</h2>",
+        _table([{k: v for k, v in result.recon_stats.items() if not isinstance(v, dict)}]),
         f"<p>Log integrity: {html.escape(result.loss or 'complete')}</p>",
         "</body></html>",
     ]

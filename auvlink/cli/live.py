@@ -1,0 +1,84 @@
+"""``auvlink live CONFIG.toml [--out DIR]``: the onboard pipeline on the ports of a vehicle configuration.
+
+Opens every port of the configuration, records the mission log (``DIR/mission.mcap`` unless
+``--log``) and runs drivers -> causal navigation -> reconstruction -> streaming clustering ->
+classification as the data comes, writing each object to ``DIR/detections.jsonl`` when it is final.
+A port that goes is reopened with backoff (the log marks the gap). Ctrl-C / SIGTERM (or the end of
+``--duration``) flush everything: DIR gets ``cloud.ply``, ``summary.json`` and ``report.html``, the
+log its last chunk. See docs/LIVE.md for real hardware.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+from types import FrameType
+
+from auvlink.errors import AuvlinkError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", type=Path, help="vehicle configuration (TOML: [[devices]] name, format, url, ...)")
+    p.add_argument("--out", type=Path, default=Path("live-out"), help="output folder (default live-out)")
+    p.add_argument("--log", type=Path, default=None, help="mission log to write (default DIR/mission.mcap)")
+    p.add_argument("--duration", type=float, default=None, help="stop after S seconds (default: until Ctrl-C)")
+    p.add_argument("--model", type=Path, default=None, help="classifier checkpoint (default: the shipped one)")
+    p.add_argument("--no-classify", action="store_true", help="stop after clustering")
+    p.add_argument("--no-report", action="store_true", help="skip report.html")
+    p.add_argument("--sonar-queue", type=int, default=10,
+                   help="sonar frames waiting for the engine before new ones are dropped (default 10)")
+    p.add_argument("--quiet", action="store_true", help="no line per detection")
+
+
+def run(args: argparse.Namespace) -> int:
+    from auvlink.cli.replay import scores_line
+    from auvlink.pipeline.live import LiveRun
+    from auvlink.pipeline.report import write_report
+
+    if not args.config.is_file():
+        raise AuvlinkError(f"{args.config}: no such configuration file")
+    if args.sonar_queue < 1:
+        raise AuvlinkError(f"--sonar-queue must be >= 1, got {args.sonar_queue}")
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    def show(det: object) -> None:
+        if not args.quiet:
+            d = det  # a Detection
+            print(f"object {d.id}: {d.class_name} ({d.score:.2f}) at N {d.position_ned[0]:.1f} "  # type: ignore[attr-defined]
+                  f"E {d.position_ned[1]:.1f} m, {d.n_points} points", flush=True)  # type: ignore[attr-defined]
+
+    live = LiveRun(args.config, args.out, log_path=args.log, duration=args.duration, stop=stop,
+                   classify=not args.no_classify, model=args.model, sonar_queue=args.sonar_queue,
+                   on_detection=show)
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        result = live.run()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    summary = __import__("json").loads((args.out / "summary.json").read_text())
+    if not args.no_report:
+        print(f"report: {write_report(result, summary, args.out)}")
+    lat = result.latency.get("frame_end_to_end")
+    frames = result.recon_stats.get("frames_processed", 0)
+    print(f"{len(result.detections)} objects -> {args.out / 'detections.jsonl'}; log {live.log_path}")
+    if lat:
+        print(f"sonar frames: {frames} processed, latency p50 {lat['p50_ms']:.0f} ms, p99 {lat['p99_ms']:.0f} ms; "
+              f"dropped {sum(result.drops.values())}")
+    gaps = [e for e in result.events if e["kind"] in ("port_lost", "open_failed")]
+    if gaps:
+        print(f"port gaps: {len(gaps)} ({', '.join(sorted({e['device'] for e in gaps}))}); see summary.json events")
+    line = scores_line(summary)
+    if line:
+        print(line)
+    if live.fatal:
+        print(f"auvlink: error: {live.fatal}; stopped cleanly, {args.out} written, the log replays up to its "
+              "last complete chunk", file=sys.stderr)
+        return 1
+    return 0

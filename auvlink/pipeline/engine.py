@@ -1,0 +1,278 @@
+"""The streaming engine: samples in time order -> causal navigation -> recon -> clusters -> classes.
+
+One engine serves ``auvlink live`` (fed from the drivers) and ``auvlink replay`` / ``demo`` (fed from
+the log). :meth:`Engine.feed` buffers decoded samples; :meth:`Engine.advance` releases those older
+than a watermark (live: every driver has handed over everything it received before it; replay: the
+time of the sample being read), in ``(receive time, arrival)`` order:
+
+1. navigation samples go to :class:`recon.nav_stream.CausalNavigator` (a pose at t uses samples up
+   to t only, and is the same number however the samples were grouped);
+2. sonar frames go to :class:`recon.pipeline.Reconstructor` in groups of ``frame_block`` frames
+   (with the DVL seabed points up to the group's last frame), so the result depends on the samples
+   and the settings only, never on when they arrived; frames before the navigation starts or more
+   than ``max_extrapolation_s`` past it are skipped and counted;
+3. every ``poll_s`` of mission time the streaming clusterer finalizes the objects the vehicle is
+   past; each is classified at once and handed to ``on_detection``.
+
+Replaying a log recorded by ``auvlink live`` with the live settings (stored in the log) therefore
+gives the live detections, apart from the frames the live run dropped (counted there).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from auvlink.pipeline.latency import StageTimes
+from auvlink.pipeline.process import Detection, StripFrame, default_recon_config
+from auvlink.pipeline.route import DvlPayload, Event, Router, SonarPayload
+from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
+from auvlink.records import Sample
+
+
+@dataclass(frozen=True)
+class EngineConfig:
+    """Settings that decide the results (stored in a live log, so its replay matches)."""
+
+    frame_block: int = 1  # sonar frames per reconstruction call (live: 1 for latency)
+    poll_s: float = 1.0  # mission seconds between streaming-clustering polls
+    max_extrapolation_s: float = 1.0  # a frame this far past the last navigation sample is skipped
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> EngineConfig:
+        names = set(cls.__dataclass_fields__)
+        return cls(**{k: v for k, v in d.items() if k in names})
+
+
+@dataclass
+class _Pending:
+    events: list[Event] = field(default_factory=list)
+    frames: list[tuple[int, SonarPayload]] = field(default_factory=list)
+
+
+class Engine:
+    """See the module docstring. ``clock`` (ns, the drivers' clock) enables end-to-end frame latency."""
+
+    def __init__(self, setup: MissionSetup, config: EngineConfig | None = None, *, t0_ns: int | None = None,
+                 recon_config: Any = None, classify: bool = True, model: Path | None = None,
+                 on_detection: Callable[[Detection], None] | None = None,
+                 clock: Callable[[], int] | None = None, strip_frames: int = 6, ring_frames: int = 200) -> None:
+        from recon.nav_stream import CausalNavigator
+
+        self.setup = setup
+        self.config = config or EngineConfig()
+        self.t0_ns = t0_ns
+        self.recon_config = recon_config or default_recon_config()
+        self.nav = CausalNavigator(nav_config(setup), self.config.max_extrapolation_s)
+        self.router = Router()
+        self.times = StageTimes()
+        self.detections: list[Detection] = []
+        self.strip: list[StripFrame] = []
+        self.counts = {"frames": 0, "frames_processed": 0, "frames_without_navigation": 0, "polls": 0}
+        self.rec: Any = None
+        self.geometry: Any = None
+        self._classify, self._model = classify, model
+        self._classifier: Any = None
+        self._on_detection, self._clock = on_detection, clock
+        self._buf: list[Event] = []
+        self._frames: list[tuple[int, SonarPayload]] = []
+        self._ring: deque[tuple[float, Any]] = deque(maxlen=ring_frames)
+        self._strip_max = strip_frames
+        self._poll_k = -1
+        self._t_last = -math.inf
+        self._finished = False
+
+    # ------------------------------------------------------------------ input
+    def load_classifier(self) -> None:
+        """Load the classifier now (live does it before opening the ports)."""
+        if self._classify and self._classifier is None:
+            from classify.infer import Classifier
+
+            self._classifier = Classifier.load(self._model)
+
+    def warm_up(self) -> None:
+        """Load the classifier and the clustering library now, before the first frame: live does it
+        before opening the ports (no first-object stall), and replay too, so both compute in the same
+        process state (loading PyTorch changes the threading of the numerical libraries, and with it
+        the last bits of some sums)."""
+        from recon.cluster import dbscan_labels
+
+        self.load_classifier()
+        dbscan_labels(np.random.default_rng(0).normal(size=(64, 3)), 0.5, 8)
+
+    def feed(self, sample: Sample) -> None:
+        ev = self.router.route(sample)
+        if ev is not None:
+            if self.t0_ns is None:
+                self.t0_ns = ev.t_ns
+            self._buf.append(ev)
+
+    def _t(self, t_ns: int) -> float:
+        return (t_ns - (self.t0_ns or 0)) * 1e-9
+
+    def advance(self, watermark_ns: int | None = None) -> int:
+        """Process every buffered event older than ``watermark_ns`` (all with None); returns frames done."""
+        if not self._buf:
+            return self._run_frames(final=watermark_ns is None)
+        if watermark_ns is None:
+            out, self._buf = self._buf, []
+        else:
+            out = [e for e in self._buf if e.t_ns < watermark_ns]
+            if len(out) != len(self._buf):
+                self._buf = [e for e in self._buf if e.t_ns >= watermark_ns]
+            else:
+                self._buf = []
+        out.sort(key=lambda e: (e.t_ns, e.seq))
+        self._navigate(out)
+        self._frames.extend((e.t_ns, e.payload) for e in out if e.kind == "sonar")
+        return self._run_frames(final=watermark_ns is None)
+
+    def _navigate(self, events: list[Event]) -> None:
+        from recon.nav import DepthSamples, DvlSamples, GyroSamples
+
+        dvl = [e for e in events if e.kind == "dvl"]
+        gyro = [e for e in events if e.kind == "gyro"]
+        depth = [e for e in events if e.kind == "depth"]
+        if not (dvl or gyro or depth):
+            return
+        t0 = time.perf_counter()
+        d = g = p = None
+        if dvl:
+            pl: list[DvlPayload] = [e.payload for e in dvl]
+            d = DvlSamples(t=np.array([self._t(e.t_ns) for e in dvl]), velocity=np.array([x.velocity for x in pl]),
+                           frame=pl[-1].frame,  # type: ignore[arg-type]
+                           valid=np.array([x.valid for x in pl]), altitude=np.array([x.altitude for x in pl]),
+                           heading=np.array([x.heading for x in pl]), pitch=np.array([x.pitch for x in pl]),
+                           roll=np.array([x.roll for x in pl]))
+        if gyro:
+            g = GyroSamples(t=np.array([self._t(e.t_ns) for e in gyro]), value=np.array([e.payload for e in gyro]),
+                            kind=self.router.gyro_kind)  # type: ignore[arg-type]
+        if depth:
+            p = DepthSamples(t=np.array([self._t(e.t_ns) for e in depth]),
+                             pressure_pa=np.array([e.payload for e in depth]))
+        self.nav.add(d, g, p)
+        self.times.add("navigation", time.perf_counter() - t0)
+
+    # ------------------------------------------------------------------ frames
+    def _run_frames(self, final: bool) -> int:
+        b = max(1, int(self.config.frame_block))
+        done = 0
+        while len(self._frames) >= b or (final and self._frames):
+            group, self._frames = self._frames[:b], self._frames[b:]
+            done += self._group(group)
+        return done
+
+    def _group(self, group: list[tuple[int, SonarPayload]]) -> int:
+        t_start = time.perf_counter()
+        self.counts["frames"] += len(group)
+        times = np.array([self._t(t) for t, _ in group])
+        ok = self.nav.covered(times)
+        self.counts["frames_without_navigation"] += int((~ok).sum())
+        for (_, fr), t in zip(group, times, strict=True):
+            self._ring.append((float(t), fr.image))
+        if not ok.any():
+            return 0
+        sel = np.flatnonzero(ok)
+        if self.rec is None:
+            from recon.pipeline import Reconstructor
+
+            first = group[int(sel[0])][1]
+            self.geometry = sonar_geometry(self.setup, first.azimuths, first.window)
+            self.rec = Reconstructor(self.geometry, self.nav, self.recon_config)
+        g = self.geometry
+        imgs = [group[i][1].image for i in sel]
+        good = [k for k, im in enumerate(imgs) if im.shape == (g.n_bins, g.n_beams) and im.dtype == np.uint8]
+        self.counts["frames_bad_shape"] = self.counts.get("frames_bad_shape", 0) + len(imgs) - len(good)
+        if not good:
+            return 0
+        sel, ts = sel[good], times[sel[good]]
+        self.rec.add_seabed_points(self.nav.take_seabed_points(until=float(ts.max())))
+        self.rec.add_frames(ts, np.stack([imgs[k] for k in good]))
+        dt = time.perf_counter() - t_start
+        self.times.add("reconstruction", dt / sel.size, sel.size)
+        self.counts["frames_processed"] += int(sel.size)
+        self._t_last = max(self._t_last, float(ts.max()))
+        if self._clock is not None:
+            now = self._clock()
+            for i in sel:
+                self.times.add("frame_end_to_end", (now - group[int(i)][0]) * 1e-9)
+        k = math.floor(self._t_last / self.config.poll_s)
+        if k > self._poll_k:
+            self._poll_k = k
+            t0 = time.perf_counter()
+            pos, _ = self.nav.pose_at(self._t_last)
+            objs = self.rec.poll(pos[0], self._t_last)
+            self.counts["polls"] += 1
+            self.times.add("clustering", time.perf_counter() - t0)
+            self._emit(objs)
+        return int(sel.size)
+
+    # ------------------------------------------------------------------ objects
+    def _emit(self, objects: list[Any]) -> None:
+        if not objects:
+            return
+        t0 = time.perf_counter()
+        labels: list[tuple[str, float]] = [("unknown", 0.0)] * len(objects)
+        if self._classify:
+            self.load_classifier()
+            assert self._classifier is not None
+            labels = self._classifier.classify_many([o.points for o in objects])
+            self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
+        epoch = (self.t0_ns or 0) * 1e-9
+        for o, (c, s) in zip(objects, labels, strict=True):
+            det = Detection(id=int(o.id), class_name=c, score=float(s),
+                            position_ned=(float(o.centroid[0]), float(o.centroid[1]), float(o.centroid[2])),
+                            size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
+                            n_points=int(o.n_points), t_first=epoch + float(o.t_first),
+                            t_last=epoch + float(o.t_last), points=o.points)
+            self.detections.append(det)
+            self._pick_strip(float(o.t_first))
+            if self._on_detection is not None:
+                self._on_detection(det)
+
+    def _pick_strip(self, t_first: float) -> None:
+        if len(self.strip) >= self._strip_max or not self._ring:
+            return
+        ts = np.array([t for t, _ in self._ring])
+        i = int(np.argmin(np.abs(ts - (t_first + 0.8))))
+        t, img = self._ring[i]
+        if not self.nav.covered(t)[0] or any(s.t == t for s in self.strip):
+            return
+        pos, rot = self.nav.pose_at(t)
+        self.strip.append(StripFrame(t, img, pos, rot, self.nav.altitude_at(t)))
+
+    def finish(self) -> list[Detection]:
+        """End of the mission: process what is buffered, then every remaining object is final."""
+        if self._finished:
+            return self.detections
+        self._finished = True
+        self.advance(None)
+        if self.rec is not None:
+            t0 = time.perf_counter()
+            objs = self.rec.finish()
+            self.times.add("clustering", time.perf_counter() - t0)
+            self._emit(objs)
+        return self.detections
+
+    # ------------------------------------------------------------------ reporting
+    def recon_stats(self) -> dict[str, Any]:
+        rec = self.rec
+        return {**self.counts, "nav_samples": dict(self.nav.samples), "nav_late_samples": self.nav.late,
+                "frames_with_points": rec.frames_with_points if rec else 0, "points": rec.points_total if rec else 0,
+                "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections)}
+
+    def track(self, step: int = 5) -> np.ndarray:
+        return self.nav.positions(step)[1]
+
+    def highlight_points(self) -> np.ndarray:
+        return self.rec.raw_points if self.rec is not None else np.zeros((0, 3))

@@ -1,0 +1,113 @@
+"""Supervised port readers: one thread per device, reopened with exponential backoff when it goes.
+
+A :class:`PortReader` reads its :class:`~auvlink.driver.Driver` and hands each decoded sample to
+``deliver`` (never blocking: the receiver drops what it cannot take). Before every read it
+publishes a *watermark*, the host time before which every sample of this device has been handed
+over (samples are stamped after the read returns), so a consumer knows when the devices together
+are complete up to a time. A port that fails (closed, unplugged, the peer gone) is closed, reported
+through ``on_event`` (``port_lost``), and reopened after 0.2, 0.4, 0.8 ... up to ``backoff_max`` s
+(``port_reopened`` with the gap's length); the watermark keeps advancing meanwhile, so the others
+are not held up. Errors are never printed: they are events.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from auvlink.clock import now_ns
+from auvlink.driver import Driver
+from auvlink.errors import AuvlinkError, TransportError
+from auvlink.records import Sample
+
+EventSink = Callable[[dict[str, Any]], None]
+
+
+class PortReader:
+    """Reads one driver on its own thread until ``stop`` is set (see the module docstring)."""
+
+    def __init__(self, driver: Driver, deliver: Callable[[Sample], None], stop: threading.Event, *,
+                 on_event: EventSink | None = None, read_timeout: float = 0.05, backoff_initial: float = 0.2,
+                 backoff_max: float = 5.0, opened: bool = False) -> None:
+        self.driver = driver
+        self.deliver = deliver
+        self.stop = stop
+        self.on_event = on_event
+        self.read_timeout = read_timeout
+        self.backoff_initial = backoff_initial
+        self.backoff_max = backoff_max
+        self.watermark_ns = now_ns()
+        self.is_open = opened
+        self.reopens = 0
+        self.failures = 0
+        self.gaps: list[tuple[int, int]] = []  # (lost at, reopened at) host ns
+        self.fatal = ""
+        self.thread = threading.Thread(target=self._run, name=f"auvlink-port-{driver.name}")
+
+    def start(self) -> PortReader:
+        self.thread.start()
+        return self
+
+    def join(self, timeout: float | None = None) -> None:
+        self.thread.join(timeout)
+
+    def _event(self, kind: str, **detail: Any) -> None:
+        if self.on_event is not None:
+            self.on_event({"t_ns": now_ns(), "device": self.driver.name, "kind": kind, **detail})
+
+    def _run(self) -> None:
+        lost_at: int | None = None
+        delay = self.backoff_initial
+        try:
+            while not self.stop.is_set():
+                if not self.is_open:
+                    self.watermark_ns = now_ns()
+                    try:
+                        self.driver.open()
+                    except TransportError as exc:
+                        if lost_at is None:  # never opened: a start-up failure is a gap too
+                            lost_at = now_ns()
+                            self._event("open_failed", error=str(exc))
+                        self.watermark_ns = now_ns()
+                        self.stop.wait(delay)
+                        delay = min(2.0 * delay, self.backoff_max)
+                        continue
+                    self.is_open = True
+                    delay = self.backoff_initial
+                    self.driver.framer.reset()  # bytes before the gap belong to no frame
+                    if lost_at is not None:
+                        back = now_ns()
+                        self.gaps.append((lost_at, back))
+                        self.reopens += 1
+                        self._event("port_reopened", gap_s=round((back - lost_at) * 1e-9, 3))
+                        lost_at = None
+                self.watermark_ns = now_ns()
+                try:
+                    samples = self.driver.read(self.read_timeout)
+                except TransportError as exc:
+                    self.failures += 1
+                    lost_at = now_ns()
+                    self._event("port_lost", error=str(exc))
+                    self._close()
+                    continue
+                for s in samples:
+                    self.deliver(s)
+        except AuvlinkError as exc:  # e.g. the log writer failed inside a raw listener
+            self.fatal = str(exc)
+            self._event("reader_stopped", error=str(exc))
+        finally:
+            self._close()
+            self.watermark_ns = 2**63 - 1  # a stopped reader holds nobody up
+
+    def _close(self) -> None:
+        if self.is_open:
+            self.is_open = False
+            try:
+                self.driver.close()
+            except Exception as exc:  # a backend failing to close a dead port (python-can: CanOperationError)
+                self._event("close_failed", error=f"{type(exc).__name__}: {exc}")
+
+    def describe(self) -> dict[str, Any]:
+        return {**self.driver.describe(), "reopens": self.reopens, "port_failures": self.failures,
+                "gaps_s": [round((b - a) * 1e-9, 3) for a, b in self.gaps], "fatal": self.fatal}

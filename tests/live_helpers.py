@@ -1,0 +1,98 @@
+"""Helpers of the live-loop tests: a short scene, a vehicle config on private virtual ports, and the
+simulator and ``LiveRun`` on threads that are always stopped and joined."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from auvlink.config import load_config
+from auvlink.sim.live import serve
+from auvlink.sim.scene import loads_scene
+from auvlink.virtual import free_tcp_port
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# one 26 m line at 2 m/s (13 s), two objects on it
+SCENE = """
+seed = 5
+[seabed]
+depth = 20.0
+slope_deg = 0.0
+slope_azimuth_deg = 0.0
+roughness = 0.02
+[[objects]]
+class = "pipe"
+position = [10.0, 0.3]
+heading_deg = 60.0
+[[objects]]
+class = "reef_c"
+position = [19.0, -0.3]
+heading_deg = 0.0
+[survey]
+pattern = "lawnmower"
+origin = [0.0, 0.0]
+heading_deg = 0.0
+line_length = 26.0
+line_spacing = 3.5
+lines = 1
+altitude = 5.0
+speed = 2.0
+[sonar]
+tilt_deg = 30.0
+spread_deg = 14.0
+window_start = 1.0
+window_length = 10.0
+fps = 10.0
+"""
+TRUTH_NE = ((10.0, 0.3), (19.0, -0.3))
+
+
+def vehicle_config(tmp_path: Path, pressure: str = "paro") -> Path:
+    """examples/virtual_ports.toml with the ports under ``tmp_path`` and a free TCP port."""
+    text = (ROOT / "examples" / "virtual_ports.toml").read_text()
+    text = text.replace("/tmp/auvlink/", f"{tmp_path}/ports/").replace("5600", str(free_tcp_port()))
+    text = text.replace("bitrate=500000", "bitrate=500000&sleep_after_open=0")
+    text = text.replace('format = "keller"', f'format = "{pressure}"')
+    path = tmp_path / "vehicle.toml"
+    path.write_text(text)
+    return path
+
+
+@contextmanager
+def threads() -> Iterator[list[tuple[threading.Thread, threading.Event]]]:
+    """Threads registered here are stopped (their event set) and joined on the way out."""
+    started: list[tuple[threading.Thread, threading.Event]] = []
+    try:
+        yield started
+    finally:
+        for _, stop in started:
+            stop.set()
+        for t, _ in started:
+            t.join(30.0)
+        assert not any(t.is_alive() for t, _ in started)
+
+
+def start(pool: list[tuple[threading.Thread, threading.Event]], target: Any, stop: threading.Event,
+          name: str) -> tuple[threading.Thread, list[Any], list[BaseException]]:
+    """Run ``target()`` on a thread; its return value or exception lands in the lists returned."""
+    out: list[Any] = []
+    errors: list[BaseException] = []
+
+    def body() -> None:
+        try:
+            out.append(target())
+        except BaseException as exc:
+            errors.append(exc)
+
+    t = threading.Thread(target=body, name=name)
+    pool.append((t, stop))
+    t.start()
+    return t, out, errors
+
+
+def simulate(cfg: Path, stop: threading.Event, speed: float = 1.0, **kw: Any) -> Any:
+    return serve(loads_scene(SCENE), load_config(cfg), speed=speed, stop=stop, **kw)
