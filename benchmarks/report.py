@@ -176,6 +176,23 @@ def _scalars(res: dict[str, Any]) -> list[dict[str, Any]]:
     return [{"figure": k, "value": v} for k, v in res.items() if k not in skip and _simple(v)]
 
 
+def default_points(stages: dict[str, Any]) -> list[dict[str, Any]]:
+    """Per stage and knob, the default setting and whether it lies on that knob's Pareto front."""
+    out = []
+    for stage, res in stages.items():
+        knobs: dict[str, list[dict[str, Any]]] = {}
+        for r in res.get("tradeoffs", []):
+            knobs.setdefault(str(r["knob"]), []).append(r)
+        for knob, rows in knobs.items():
+            front = pareto_front([(float(r["time_s"]), float(r["error"])) for r in rows])
+            for r, f in zip(rows, front, strict=True):
+                if r.get("default"):
+                    out.append({"stage": stage, "knob": knob, "default": r["setting"], "time_s": r["time_s"],
+                                "time_unit": r.get("time_unit", ""), "error": r["error"],
+                                "error_name": r.get("error_name", ""), "on_front": f})
+    return out
+
+
 def render(results: dict[str, Any], out_dir: Path) -> Path:
     """Write ``out_dir/bench.html`` and ``out_dir/plots/*.png`` from a results.json structure."""
     plots = out_dir / "plots"
@@ -199,6 +216,11 @@ def render(results: dict[str, Any], out_dir: Path) -> Path:
         parts.append("<h2>Peers in the same run</h2>"
                      + _table(all_peers, ["stage", "what", "ours", "ours_s", "peer", "peer_s", "ratio"])
                      + img)
+    defaults = default_points(stages)
+    if defaults:
+        parts.append("<h2>Defaults against the Pareto front</h2>" + _table(
+            defaults, ["stage", "knob", "default", "time_s", "time_unit", "error", "error_name", "on_front"],
+            max_rows=10_000))
     for stage, res in stages.items():
         parts.append(f'<h2 id="{slug(stage)}">{html.escape(stage)}</h2>')
         if res.get("error"):

@@ -55,6 +55,11 @@ def test_render_writes_every_plot_and_table(tmp_path: Path) -> None:
     rows = page.split("Run time against error")[1]
     assert rows.count("<td>yes</td></tr>") == 3
     assert "auvlink bench --smoke" in page
+    # the default K=32 is reported as a Pareto point
+    assert report.default_points(_results()["stages"]) == [
+        {"stage": "sim", "knob": "rays per beam K", "default": 32, "time_s": 5e-4, "time_unit": "frame",
+         "error": 0.006, "error_name": "highlight error [m]", "on_front": True}]
+    assert "Defaults against the Pareto front" in page
 
 
 def test_cli_report_only_rerenders(tmp_path: Path) -> None:
