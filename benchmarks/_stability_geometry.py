@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -245,8 +246,7 @@ def float32_cases(frames: int) -> tuple[list[Row], list[Row]]:
                         "HighlightConfig.dtype='float64' away from the origin)")})
         if scale == 1e3:
             for dt in ("float32", "float64"):
-                best = min(_timed(lambda d=dt, p=pos: project(g, fi, bi, ri, p, rot, "exact", d))
-                           for _ in range(5))
+                best = min(_timed(partial(project, g, fi, bi, ri, pos, rot, "exact", dt)) for _ in range(5))
                 trade.append({"knob": "projection dtype", "setting": dt, "time_s": best / len(fi) * 1e6,
                               "time_unit": "1e6 points", "error": err if dt == "float32" else 0.0,
                               "error_name": "worst point error vs float64 within 1 km [m]",

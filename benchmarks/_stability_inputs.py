@@ -8,7 +8,8 @@ is expected is a failure with its type and message.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from functools import partial
+from typing import Any, Literal
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -79,8 +80,9 @@ def cloud_cases() -> list[Row]:
     expect = {"one point": 0, "collinear (200 points on a 2 m line)": 1, "zero extent (200 identical points)": 1,
               "planar (200 points on a 1 m square, no height)": 1}
     rows = []
-    for backend in ("open3d", "sklearn"):
-        cfg = ClusterConfig(backend=backend)  # type: ignore[arg-type]
+    backends: tuple[Literal["open3d", "sklearn"], ...] = ("open3d", "sklearn")
+    for backend in backends:
+        cfg = ClusterConfig(backend=backend)
 
         def run(points: np.ndarray, n_expected: int, cfg: ClusterConfig = cfg) -> tuple[bool, str]:
             objs = cluster(points, np.zeros(len(points)), cfg)
@@ -88,10 +90,12 @@ def cloud_cases() -> list[Row]:
             finite = all(np.all(np.isfinite(o.centroid)) and np.all(np.isfinite(o.extent)) for o in objs)
             return len(objs) == n_expected and finite, f"{len(objs)} object(s) (expected {n_expected}), extents {ext}"
 
-        rows.append(case(f"cluster ({backend}): empty cloud", lambda c=cfg: (
-            cluster(np.zeros((0, 3)), np.zeros(0), c) == [], "no objects")))
+        def empty(c: ClusterConfig = cfg) -> tuple[bool, str]:
+            return cluster(np.zeros((0, 3)), np.zeros(0), c) == [], "no objects"
+
+        rows.append(case(f"cluster ({backend}): empty cloud", empty))
         for name, pts in clouds.items():
-            rows.append(case(f"cluster ({backend}): {name}", lambda p=pts, n=expect[name], r=run: r(p, n)))
+            rows.append(case(f"cluster ({backend}): {name}", partial(run, pts, expect[name])))
 
         def nan(c: ClusterConfig = cfg) -> tuple[bool, str]:
             pts = clouds["collinear (200 points on a 2 m line)"].copy()

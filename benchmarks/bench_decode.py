@@ -34,14 +34,15 @@ def _pd0(quick: bool) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     n = decode_bytes(data, fmt, lambda r: None).records
     repeat = 1 if smoke() else 3 if quick else 7
     t_frame = best_time(lambda: decode_bytes(data, fmt, lambda r: None), repeat)
-    rows = [{"what": "pd0 framer+decode (auvlink)", "items": n, "seconds": t_frame, "per_s": n / t_frame}]
+    rows: list[dict[str, Any]] = [{"what": "pd0 framer+decode (auvlink)", "items": n, "seconds": t_frame,
+                                   "per_s": n / t_frame}]
     extra: dict[str, Any] = {}
     try:
-        from auvlink.codecs.pd0_bulk import decode_file_bulk
+        from auvlink.codecs import pd0_bulk
     except ImportError:
-        decode_file_bulk = None
-    if decode_file_bulk is not None:
-        t_bulk = best_time(lambda: decode_file_bulk(data), repeat)
+        pd0_bulk = None  # type: ignore[assignment]
+    if pd0_bulk is not None:
+        t_bulk = best_time(lambda: pd0_bulk.decode_file_bulk(data), repeat)
         rows.append({"what": "pd0 bulk decode (auvlink)", "items": n, "seconds": t_bulk, "per_s": n / t_bulk})
     peer, reason = peer_dolfyn.time_dolfyn(path, repeat=1 if smoke() else 2 if quick else 5)
     if peer is None:
@@ -87,7 +88,7 @@ def _sonar(quick: bool) -> list[dict[str, Any]]:
 
 def _small(quick: bool) -> list[dict[str, Any]]:
     """Navigation formats: frames/s through framer + codec on synthetic streams."""
-    rows = []
+    rows: list[dict[str, Any]] = []
     try:
         from auvlink.codecs import dsp1760
     except ImportError:

@@ -232,7 +232,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     print()
     print(table(contract["peers"], ["what", "ours_s", "peer_s", "ratio", "identical"]))
     k32 = {r["frames"]: r for r in rows if r["cull"] == "rays" and r["seabed"] == "sloped rough"}
-    result = {
+    result: dict[str, Any] = {
         "rows": rows, "k_sweep": sweep, "bins_sweep": bins, "goal_fps": 400.0, **contract,
         "fps_k32_objects": k32["objects in view"]["fps"], "fps_k32_seabed": k32["seabed only"]["fps"],
         "fps_cpu_k32_objects": k32["objects in view"]["fps_cpu"],
