@@ -16,6 +16,7 @@ import argparse
 import importlib.util
 import json
 import os
+import resource
 import shlex
 import sys
 import time
@@ -119,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
             failed.append(stage)
         result["wall_s"] = time.perf_counter() - t0
         result["mode"] = mode
+        # high-water mark of this process so far (a stage that raises it is the one that used the memory)
+        result["bench_process_peak_rss_MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3
         results["stages"][stage] = result
     results["wall_s"] = time.perf_counter() - t_start
     results["loadavg_after"] = list(os.getloadavg())
