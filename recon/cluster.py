@@ -2,6 +2,10 @@
 
 DBSCAN runs in Open3D (``PointCloud.cluster_dbscan``) by default, scikit-learn as the alternative
 (the same definition: a core point has >= ``min_points`` neighbours within ``eps``, itself included).
+Clusters whose horizontal bounding boxes come within ``footprint_gap`` m are then merged
+(:func:`merge_footprints`): objects rest side by side on the seabed, and a part seen apart from its
+object (a reef's post, farther than ``eps`` from its top) shares its footprint.
+
 Memory is bounded: a cloud larger than ``max_points`` is first reduced to one point per occupied
 voxel (centroid, voxel grid anchored at the world origin, so batch and streaming see the same
 voxels); labels go back to every original point through the voxel index.
@@ -9,10 +13,11 @@ voxels); labels go back to every original point through the voxel index.
 Streaming (:class:`StreamingClusterer`): points are added as they come; :meth:`poll` clusters the
 points not yet emitted and finalizes a cluster once the vehicle is past it: no new point for
 ``quiet_s`` seconds and the vehicle horizontally farther than ``margin`` m from its bounding box.
-Its points then leave the working set. Points arriving later within ``eps`` of a finalized object
-are counted in ``late_points`` and dropped (no duplicate objects); old noise points are pruned after
-``noise_keep_s``. Where no object is revisited after it was finalized (and noise is not pruned
-under a growing cluster), streaming returns exactly the batch objects.
+Its points then leave the working set. Points arriving later within ``eps`` of a finalized object,
+or within ``footprint_gap`` of its horizontal box, are counted in ``late_points`` and dropped (no
+duplicate objects: a revisit from the next survey line does not make a second object); old noise
+points are pruned after ``noise_keep_s``. Where no object is revisited after it was finalized (and
+noise is not pruned under a growing cluster), streaming returns exactly the batch objects.
 
 Each point may carry ``extra`` columns (e.g. the sonar ray it came from, for the front-slope
 correction); they travel with the point and end up in :attr:`DetectedObject.extra`.
@@ -35,7 +40,7 @@ F64 = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class ClusterConfig:
-    eps: float = 0.3  # m
+    eps: float = 0.5  # m (reefs: frames and openings leave gaps of 0.3-0.5 m)
     min_points: int = 8
     min_cluster_points: int = 25  # smaller clusters are noise
     max_points: int = 200_000  # above this, voxel-downsample first
@@ -44,6 +49,7 @@ class ClusterConfig:
     quiet_s: float = 3.0
     margin: float = 2.0  # m
     noise_keep_s: float = 60.0
+    footprint_gap: float = 0.8  # m: merge clusters whose horizontal boxes come this close (0 = off)
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,12 +150,45 @@ def make_object(i: int, pts: F64, ts: F64, extra: F64 | None = None) -> Detected
                           t_last=float(ts.max()), times=ts, extra=_extra(extra, pts.shape[0]))
 
 
+def merge_footprints(points: F64, labels: NDArray[np.int64], gap: float) -> NDArray[np.int64]:
+    """Merge clusters whose horizontal bounding boxes come within ``gap`` m of each other.
+
+    Objects rest on the seabed side by side, never on top of each other: a part seen apart from its
+    object (a reef's post below its top, farther than ``eps`` from it) still shares its footprint.
+    """
+    ids = np.unique(labels[labels >= 0])
+    if ids.size < 2 or gap <= 0:
+        return labels
+    lo = np.stack([points[labels == i, :2].min(axis=0) for i in ids])
+    hi = np.stack([points[labels == i, :2].max(axis=0) for i in ids])
+    sep = np.maximum(0.0, np.maximum(lo[:, None, :] - hi[None, :, :], lo[None, :, :] - hi[:, None, :]))
+    near = np.linalg.norm(sep, axis=2) <= gap
+    root = np.arange(ids.size)
+    for i, j in zip(*np.nonzero(np.triu(near, 1)), strict=True):  # union-find, few clusters
+        ri, rj = int(root[i]), int(root[j])
+        while root[ri] != ri:
+            ri = int(root[ri])
+        while root[rj] != rj:
+            rj = int(root[rj])
+        root[max(ri, rj)] = min(ri, rj)
+    for k in range(ids.size):
+        r = k
+        while root[r] != r:
+            r = int(root[r])
+        root[k] = r
+    lut = np.full(int(ids.max()) + 1, -1, np.int64)
+    lut[ids] = ids[root]
+    return np.where(labels >= 0, lut[np.maximum(labels, 0)], labels)
+
+
 def cluster_labels(points: F64, cfg: ClusterConfig) -> NDArray[np.int64]:
     """Labels per point, voxel-downsampling first when the cloud is larger than ``max_points``."""
     if points.shape[0] > cfg.max_points:
         cent, inv = voxel_downsample(points, cfg.voxel)
-        return dbscan_labels(cent, cfg.eps, cfg.min_points, cfg.backend)[inv]
-    return dbscan_labels(points, cfg.eps, cfg.min_points, cfg.backend)
+        labels = dbscan_labels(cent, cfg.eps, cfg.min_points, cfg.backend)[inv]
+    else:
+        labels = dbscan_labels(points, cfg.eps, cfg.min_points, cfg.backend)
+    return merge_footprints(points, labels, cfg.footprint_gap)
 
 
 def cluster(points: ArrayLike, times: ArrayLike, config: ClusterConfig | None = None,
@@ -173,6 +212,7 @@ class StreamingClusterer:
         self._ex: list[F64] = []
         self._final: list[F64] = []
         self._final_tree: cKDTree | None = None
+        self._boxes: list[tuple[F64, F64]] = []  # horizontal boxes of the finalized objects
         self._next_id = 0
         self.late_points = 0
         self.pruned_points = 0
@@ -188,6 +228,10 @@ class StreamingClusterer:
         if self._final_tree is not None:
             d, _ = self._final_tree.query(p, distance_upper_bound=self.config.eps)
             late = np.isfinite(d)
+            if self.config.footprint_gap > 0:  # the batch would merge them (merge_footprints)
+                lo, hi = np.array([b[0] for b in self._boxes]), np.array([b[1] for b in self._boxes])
+                sep = np.maximum(0.0, np.maximum(lo[None] - p[:, None, :2], p[:, None, :2] - hi[None]))
+                late |= np.any(np.linalg.norm(sep, axis=2) <= self.config.footprint_gap, axis=1)
             self.late_points += int(late.sum())
             p, t, e = p[~late], t[~late], e[~late]
         self._pts.append(p)
@@ -241,6 +285,7 @@ class StreamingClusterer:
             out.append(make_object(self._next_id, pts, ts, ex))
             self._next_id += 1
             self._final.append(pts)
+            self._boxes.append((pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)))
         if done:
             self._final_tree = cKDTree(np.concatenate(self._final))
         return out

@@ -14,7 +14,10 @@ nearest fitted neighbour.
 Seabed points come from the DVL (vehicle position + altitude along NED down,
 :meth:`recon.trajectory.Trajectory.seabed_points`) and from the sonar's own seabed returns (the first
 return at the seabed onset lies on the steepest ray, so it is a seabed point). Removal keeps the
-points whose height above the local seabed is at least ``min_height``, so sloped seabeds work.
+points whose height above the local seabed is at least ``min_height``, so sloped seabeds work. The
+default 0.05 m is low on purpose: the first detections of an object edge lie on the steepest ray
+just short of the onset, about margin x sin(t + s/2) = 0.06 m above the seabed, and a low object
+(a 0.3 m half pipe) is a highlight for only a few frames; the front-slope correction raises them.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ class SeabedConfig:
     clip_sigma: float = 3.0
     sigma_floor: float = 0.05  # m
     ridge: float = 1e-3
-    min_height: float = 0.15  # m above the seabed to count as an object point
+    min_height: float = 0.05  # m above the seabed to count as an object point (first detections: ~margin sin(t + s/2))
     max_height: float = 10.0  # m: higher returns (fish, surface) are dropped
 
 

@@ -4,11 +4,13 @@ Scenes with 7 objects on a flat and on a 5-degree sloped seabed (two survey line
 30 degrees tilt): every object is exactly one cluster with its centroid within 0.3 m of the truth,
 and the front-slope correction brings the mean point-to-mesh distance under 5 cm.
 
-Settings: the pipeline's (threshold k = 4, front slope on, DBSCAN eps 0.5 m) with the search
-margin 0.1 m and the seabed height limit 0.05 m: the 0.3 m half pipe and the 0.5 m hemisphere are
-highlights for only a few frames and their first detections lie within 0.15 m of the seabed
-(height = margin x sin(t + s/2)). Measured (true navigation): centroid errors 0.10-0.40 m, the box
-and the half pipe above the 0.3 m goal (their far halves return too weakly); see the report.
+Settings: recon's defaults, which are the pipeline's (threshold median + 4 MAD, search margin
+0.1 m, seabed height limit 0.05 m, front slope corrected on the arcs, DBSCAN eps 0.5 m, clusters
+within 0.8 m of each other's footprint merged). The 0.3 m half pipe and the 0.5 m hemisphere are
+highlights for only a few frames and their first detections lie within ~0.1 m of the seabed
+(height = margin x sin(t + s/2)), hence the small margin and height limit. Measured (true
+navigation): centroid errors 0.10-0.37 m; the box and the half pipe miss the 0.3 m goal (their far
+halves return too weakly to be seen); see the report.
 """
 
 from __future__ import annotations
@@ -18,10 +20,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from recon.cluster import ClusterConfig
-from recon.highlight import HighlightConfig
 from recon.pipeline import ReconConfig
-from recon.seabed import SeabedConfig
 from recon.simeval import SimFrames, evaluate, simulate
 
 pytest.importorskip("open3d")
@@ -61,8 +60,7 @@ rays_per_beam = 16
 """
 
 
-CONFIG = ReconConfig(highlight=HighlightConfig(k=4.0, margin_m=0.1), seabed=SeabedConfig(min_height=0.05),
-                     cluster=ClusterConfig(eps=0.5))
+CONFIG = ReconConfig()
 
 
 @pytest.fixture(scope="module", params=[0.0, 5.0], ids=["flat", "slope5"])
@@ -78,7 +76,7 @@ def test_every_object_exactly_one_cluster_near_truth(mission: SimFrames) -> None
     assert ev.exactly_one
     assert len(ev.objects) == len(OBJECTS)  # no spurious cluster either
     assert np.median(ev.centroid_error) < 0.3, ev.centroid_error  # goal: every one < 0.3 m (not met)
-    assert np.max(ev.centroid_error) < 0.45, ev.centroid_error
+    assert np.max(ev.centroid_error) < 0.4, ev.centroid_error
 
 
 def test_front_slope_correction_meets_accuracy_goal(mission: SimFrames) -> None:
