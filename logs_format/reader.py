@@ -9,7 +9,8 @@ The file is indexed by :func:`logs_format.scan.scan` (record headers only, no tr
 summary), so a log cut off mid-write yields every message of its complete chunks and reports the
 rest in :attr:`MissionLogReader.loss`; nothing raises for damage. Chunks are opened lazily in the
 order of their first log time and merged with a heap, so memory holds only the chunks that
-overlap in time (one or two), whatever the size of the log.
+overlap in time (one or two), whatever the size of the log. While one chunk is consumed, the next
+is read and decompressed in a background thread (``prefetch=False`` turns that off).
 """
 
 from __future__ import annotations
@@ -36,8 +37,10 @@ _time = itemgetter(0)
 class MissionLogReader:
     """A mission log opened for reading (a context manager; not thread-safe)."""
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, prefetch: bool = True) -> None:
         self.path = Path(path)
+        #: read and decompress the next chunk in a background thread while this one is consumed
+        self.prefetch = prefetch
         try:
             self._f = open(self.path, "rb")
         except OSError as exc:
@@ -57,6 +60,7 @@ class MissionLogReader:
 
     # -- life cycle -----------------------------------------------------------------------
     def close(self) -> None:
+        self._opener.close()
         self._f.close()
 
     def __enter__(self) -> MissionLogReader:
@@ -202,6 +206,8 @@ class MissionLogReader:
                 i += 1
             if not heap:
                 break
+            if i < len(refs) and self.prefetch:
+                self._opener.prefetch(refs[i])  # the chunk to be opened next (a no-op when under way)
             _, offset, p, k = heap[0]
             msgs = open_chunks[k]
             # the run of this chunk's messages before anything else can come (the next chunk's
