@@ -30,6 +30,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-report", action="store_true", help="skip report.html")
     p.add_argument("--sonar-queue", type=int, default=10,
                    help="sonar frames waiting for the engine before new ones are dropped (default 10)")
+    p.add_argument("--backoff-max", type=float, default=5.0,
+                   help="longest wait between two attempts to reopen a lost port, s (default 5)")
     p.add_argument("--quiet", action="store_true", help="no line per detection")
 
 
@@ -40,6 +42,8 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.config.is_file():
         raise AuvlinkError(f"{args.config}: no such configuration file")
+    if not args.backoff_max > 0:
+        raise AuvlinkError(f"--backoff-max must be > 0, got {args.backoff_max}")
     if args.sonar_queue < 1:
         raise AuvlinkError(f"--sonar-queue must be >= 1, got {args.sonar_queue}")
     stop = threading.Event()
@@ -55,7 +59,9 @@ def run(args: argparse.Namespace) -> int:
 
     live = LiveRun(args.config, args.out, log_path=args.log, duration=args.duration, stop=stop,
                    classify=not args.no_classify, model=args.model, sonar_queue=args.sonar_queue,
-                   on_detection=show)
+                   on_detection=show, backoff_max=args.backoff_max, on_ready=lambda: print(
+                       f"auvlink live: {len(live.config.devices)} devices, log {live.log_path}, out {args.out}; "
+                       "Ctrl-C stops", flush=True))
     previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         result = live.run()

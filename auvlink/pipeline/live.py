@@ -53,7 +53,7 @@ class LiveRun:
                  duration: float | None = None, stop: threading.Event | None = None, classify: bool = True,
                  model: Path | None = None, sonar_queue: int = 10, engine_config: EngineConfig | None = None,
                  compression: str = "zstd", on_detection: Any = None, ready: threading.Event | None = None,
-                 backoff_max: float = 5.0) -> None:
+                 backoff_max: float = 5.0, on_ready: Any = None) -> None:
         self.config = config if isinstance(config, VehicleConfig) else load_config(config)
         self.out_dir = Path(out_dir)
         self.log_path = Path(log_path) if log_path is not None else self.out_dir / "mission.mcap"
@@ -63,6 +63,7 @@ class LiveRun:
         self.engine_config = engine_config or EngineConfig(frame_block=1)
         self.classify, self.model, self.compression = classify, model, compression
         self.backoff_max = backoff_max
+        self.on_ready = on_ready
         self.sonar_q: queue.Queue[Sample] = queue.Queue(maxsize=sonar_queue)
         self.nav_q: queue.Queue[Sample] = queue.Queue(maxsize=100_000)
         self.drops: dict[str, int] = {}
@@ -83,9 +84,10 @@ class LiveRun:
                 self._fail(exc)
 
     def _fail(self, exc: BaseException) -> None:
+        reason = getattr(exc.__cause__, "strerror", None) or str(exc)  # e.g. "No space left on device"
         with self._lock:
             if not self.fatal:
-                self.fatal = f"mission log: {exc}"
+                self.fatal = f"writing the mission log {self.log_path} failed: {reason}"
         self.stop.set()
 
     def _log_tap(self, device: str, fmt: str, t_host_ns: int, raw: bytes, t_sensor_ns: int | None = None) -> None:
@@ -125,9 +127,13 @@ class LiveRun:
         t0_ns = now_ns()
         engine = Engine(setup, self.engine_config, t0_ns=t0_ns, classify=self.classify, model=self.model,
                         on_detection=on_detection, clock=now_ns)
-        engine.warm_up()
         log = MissionLogWriter(self.log_path, compression=self.compression)  # LogError: one clear line
         self._log = log
+        try:
+            engine.warm_up()
+        except BaseException:
+            log.close()
+            raise
         readers: list[PortReader] = []
         stop_readers = threading.Event()
         try:
@@ -142,6 +148,8 @@ class LiveRun:
                 r.start()
             if self.ready is not None:
                 self.ready.set()
+            if self.on_ready is not None:
+                self.on_ready()
             self._loop(engine, readers)
         finally:
             stop_readers.set()

@@ -7,7 +7,9 @@ over (samples are stamped after the read returns), so a consumer knows when the 
 are complete up to a time. A port that fails (closed, unplugged, the peer gone) is closed, reported
 through ``on_event`` (``port_lost``), and reopened after 0.2, 0.4, 0.8 ... up to ``backoff_max`` s
 (``port_reopened`` with the gap's length); the watermark keeps advancing meanwhile, so the others
-are not held up. Errors are never printed: they are events.
+are not held up. A port that stays open but silent for ``silence_s`` (a stalled socket, a sensor
+that stopped talking) gives ``port_silent``, and ``port_resumed`` when bytes come again. Errors are
+never printed: they are events.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ class PortReader:
 
     def __init__(self, driver: Driver, deliver: Callable[[Sample], None], stop: threading.Event, *,
                  on_event: EventSink | None = None, read_timeout: float = 0.05, backoff_initial: float = 0.2,
-                 backoff_max: float = 5.0, opened: bool = False) -> None:
+                 backoff_max: float = 5.0, opened: bool = False, silence_s: float = 1.0) -> None:
         self.driver = driver
         self.deliver = deliver
         self.stop = stop
@@ -43,6 +45,8 @@ class PortReader:
         self.failures = 0
         self.gaps: list[tuple[int, int]] = []  # (lost at, reopened at) host ns
         self.fatal = ""
+        self.silence_s = silence_s
+        self.silences = 0
         self.thread = threading.Thread(target=self._run, name=f"auvlink-port-{driver.name}")
 
     def start(self) -> PortReader:
@@ -59,6 +63,8 @@ class PortReader:
     def _run(self) -> None:
         lost_at: int | None = None
         delay = self.backoff_initial
+        last_data, last_bytes = now_ns(), -1
+        silent = False
         try:
             while not self.stop.is_set():
                 if not self.is_open:
@@ -75,6 +81,7 @@ class PortReader:
                         continue
                     self.is_open = True
                     delay = self.backoff_initial
+                    last_data, silent = now_ns(), False
                     self.driver.framer.reset()  # bytes before the gap belong to no frame
                     if lost_at is not None:
                         back = now_ns()
@@ -91,6 +98,16 @@ class PortReader:
                     self._event("port_lost", error=str(exc))
                     self._close()
                     continue
+                t, got = now_ns(), self.driver.transport.bytes_read
+                if got != last_bytes:
+                    if silent:
+                        self._event("port_resumed", silent_s=round((t - last_data) * 1e-9, 3))
+                        silent = False
+                    last_data, last_bytes = t, got
+                elif not silent and t - last_data > self.silence_s * 1e9:
+                    silent = True
+                    self.silences += 1
+                    self._event("port_silent", silent_s=round((t - last_data) * 1e-9, 3))
                 for s in samples:
                     self.deliver(s)
         except AuvlinkError as exc:  # e.g. the log writer failed inside a raw listener
@@ -110,4 +127,5 @@ class PortReader:
 
     def describe(self) -> dict[str, Any]:
         return {**self.driver.describe(), "reopens": self.reopens, "port_failures": self.failures,
-                "gaps_s": [round((b - a) * 1e-9, 3) for a, b in self.gaps], "fatal": self.fatal}
+                "gaps_s": [round((b - a) * 1e-9, 3) for a, b in self.gaps], "silences": self.silences,
+                "fatal": self.fatal}

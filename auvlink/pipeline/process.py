@@ -120,6 +120,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     with MissionLogReader(log) as reader:
         meta = reader.metadata(decode_json=True)
         duration = reader.duration_s
+        dropped = dropped_live(reader)
     setup = MissionSetup.from_metadata(meta)
     live_cfg, t0_ns = live_settings(meta)
     cfg = engine_config or (EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK))
@@ -132,10 +133,14 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     last_adv = None
     shown = 0.0
     decode_s = 0.0
+    skipped: dict[str, int] = {}
     t_read = time.perf_counter()
     with replay:
         for sample in replay.samples():
             t_ns = sample.t_host_ns
+            if dropped and (sample.device, t_ns) in dropped:  # the live run never processed it
+                skipped[sample.device] = skipped.get(sample.device, 0) + 1
+                continue
             engine.feed(sample)
             if last_adv is None:
                 last_adv = t_ns
@@ -158,7 +163,24 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
                "clustering_s": engine.times.total("clustering"),
                "classification_s": engine.times.total("classification"),
                "total_s": time.perf_counter() - t_start}
-    return result_of(engine, log, timings, stats, loss, mode="replay")
+    return result_of(engine, log, timings, stats, loss, mode="replay", drops=skipped)
+
+
+def dropped_live(reader: Any) -> set[tuple[str, int]]:
+    """(device, receive time ns) of the frames a live run dropped (its ``events`` channel)."""
+    import json
+
+    if "events" not in reader.channels:
+        return set()
+    out = set()
+    for msg in reader.messages(channels=["events"]):
+        try:
+            ev = json.loads(msg.data)
+        except ValueError:
+            continue
+        if ev.get("kind") == "frame_dropped" and "frame_t_ns" in ev:
+            out.add((str(ev["device"]), int(ev["frame_t_ns"])))
+    return out
 
 
 ADVANCE_NS = 1_000_000_000  # replay hands samples to the engine in 1 s blocks of mission time
