@@ -38,6 +38,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from auvlink.cli.replay import scores_line
     from auvlink.pipeline.live import LiveRun
+    from auvlink.pipeline.process import Detection
     from auvlink.pipeline.report import write_report
 
     if not args.config.is_file():
@@ -51,17 +52,18 @@ def run(args: argparse.Namespace) -> int:
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
-    def show(det: object) -> None:
+    def show(d: Detection) -> None:
         if not args.quiet:
-            d = det  # a Detection
-            print(f"object {d.id}: {d.class_name} ({d.score:.2f}) at N {d.position_ned[0]:.1f} "  # type: ignore[attr-defined]
-                  f"E {d.position_ned[1]:.1f} m, {d.n_points} points", flush=True)  # type: ignore[attr-defined]
+            print(f"object {d.id}: {d.class_name} ({d.score:.2f}) at N {d.position_ned[0]:.1f} "
+                  f"E {d.position_ned[1]:.1f} m, {d.n_points} points", flush=True)
+
+    def announce() -> None:
+        print(f"auvlink live: the ports of {args.config} opening; log {args.log or args.out / 'mission.mcap'}, "
+              f"out {args.out}; Ctrl-C stops", flush=True)
 
     live = LiveRun(args.config, args.out, log_path=args.log, duration=args.duration, stop=stop,
                    classify=not args.no_classify, model=args.model, sonar_queue=args.sonar_queue,
-                   on_detection=show, backoff_max=args.backoff_max, on_ready=lambda: print(
-                       f"auvlink live: {len(live.config.devices)} devices, log {live.log_path}, out {args.out}; "
-                       "Ctrl-C stops", flush=True))
+                   on_detection=show, backoff_max=args.backoff_max, on_ready=announce)
     previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         result = live.run()
