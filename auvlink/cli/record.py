@@ -1,8 +1,10 @@
 """``auvlink record CONFIG.toml --out LOG.mcap [--duration S]``: the ports of a config -> a mission log.
 
-One thread per device reads its driver; every raw frame goes to the log writer (no processing
-beyond the framer). SIGINT / SIGTERM stop the readers, write the last chunk and the summary, and
-close the log cleanly. At the end, one line per device: frames, bytes, decode errors.
+One thread per device reads its driver (a :class:`~auvlink.pipeline.ports.PortReader`: a port that
+goes is reopened with exponential backoff, and the gap is marked in the log's ``events`` channel);
+every raw frame goes to the log writer (no processing beyond the framer). SIGINT / SIGTERM stop the
+readers, write the last chunk and the summary, and close the log cleanly. At the end, one line per
+device: frames, bytes, decode errors, reopenings.
 """
 
 from __future__ import annotations
@@ -17,7 +19,6 @@ from typing import Any
 
 from auvlink.config import load_config
 from auvlink.driver import Driver
-from auvlink.errors import AuvlinkError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,56 +32,54 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no summary at the end")
 
 
-def _reader(driver: Driver, stop: threading.Event, failures: dict[str, str]) -> None:
-    try:
-        while not stop.is_set():
-            driver.read(timeout=0.1)
-    except AuvlinkError as exc:
-        failures[driver.name] = str(exc)
-
-
 def record(config_path: str, out: str, duration: float | None = None, *, compression: str = "zstd",
            flush_interval: float = 1.0, stop: threading.Event | None = None) -> dict[str, Any]:
     """Record until ``duration`` s passed or ``stop`` is set; returns per-device counters."""
+    from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
     from logs_format.writer import MissionLogWriter
 
     config = load_config(config_path)
     stop = stop or threading.Event()
     drivers = [Driver(d.name, d.format, d.url) for d in config.devices]
     opened: list[Driver] = []
-    failures: dict[str, str] = {}
-    threads: list[threading.Thread] = []
+    readers: list[PortReader] = []
     t0 = time.monotonic()
     with MissionLogWriter(out, compression=compression, flush_interval=flush_interval) as log:
         log.add_vehicle_config(config)
+
+        def on_event(ev: dict[str, Any]) -> None:
+            log.add_json(EVENT_TOPIC, EVENT_SCHEMA_NAME, EVENT_SCHEMA, int(ev["t_ns"]), ev)
+
+        halt = threading.Event()
         try:
             for drv in drivers:
                 drv.open()
                 opened.append(drv)
                 drv.add_raw_listener(log, sensor_time=True)
             for drv in opened:
-                t = threading.Thread(target=_reader, args=(drv, stop, failures), name=f"record-{drv.name}")
-                t.start()
-                threads.append(t)
+                readers.append(PortReader(drv, lambda s: None, halt, on_event=on_event, read_timeout=0.1,
+                                          opened=True).start())
             end = None if duration is None else t0 + duration
             while not stop.is_set() and (end is None or time.monotonic() < end):
-                if len(failures) == len(opened):
+                if readers and all(r.fatal for r in readers):
                     break
                 stop.wait(0.1 if end is None else max(0.0, min(0.1, end - time.monotonic())))
         finally:
-            stop.set()
-            for t in threads:
-                t.join()
+            halt.set()
+            for r in readers:
+                r.join()
             for drv in opened:
                 drv.close()
         stats = log.stats()
     elapsed = time.monotonic() - t0
     devices = {}
+    by_name = {r.driver.name: r for r in readers}
     for drv in drivers:
         ch = stats.get(drv.name)
+        rd = by_name.get(drv.name)
         devices[drv.name] = {"format": drv.format.name, "frames": ch.frames if ch else 0,
                              "bytes": ch.bytes if ch else 0, "decode_errors": drv.stats.decode_errors,
-                             "failure": failures.get(drv.name, "")}
+                             "reopens": rd.reopens if rd else 0, "failure": rd.fatal if rd else ""}
     return {"out": out, "seconds": elapsed, "devices": devices}
 
 
@@ -101,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{result['out']}: {result['seconds']:.1f} s")
         for name, d in result["devices"].items():
             line = f"  {name:<12} {d['format']:<9} {d['frames']:>9} frames {d['bytes']:>12} bytes " \
-                   f"{d['decode_errors']:>6} decode errors"
+                   f"{d['decode_errors']:>6} decode errors {d['reopens']:>3} reopenings"
             print(line + (f"  STOPPED: {d['failure']}" if d["failure"] else ""))
     failed = [n for n, d in result["devices"].items() if d["failure"]]
     if failed:

@@ -30,19 +30,11 @@ from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.outputs import DetectionStream, write_outputs
-from auvlink.pipeline.ports import PortReader
+from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
 from auvlink.pipeline.process import LIVE_META, MissionResult, result_of
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.records import Sample
 
-EVENT_TOPIC = "events"
-EVENT_SCHEMA_NAME = "auvlink.Event"
-EVENT_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema", "title": EVENT_SCHEMA_NAME,
-    "description": "A live-run event: a port lost or reopened (a gap), a frame dropped, an error",
-    "type": "object", "required": ["t_ns", "device", "kind"],
-    "properties": {"t_ns": {"type": "integer"}, "device": {"type": "string"}, "kind": {"type": "string"}},
-}
 SONAR_FORMATS = ("didson", "aris")
 
 

@@ -25,6 +25,16 @@ from auvlink.records import Sample
 
 EventSink = Callable[[dict[str, Any]], None]
 
+#: the mission log's channel of port events (JSON; ``auvlink live`` and ``auvlink record`` write it)
+EVENT_TOPIC = "events"
+EVENT_SCHEMA_NAME = "auvlink.Event"
+EVENT_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema", "title": EVENT_SCHEMA_NAME,
+    "description": "A port event: lost or reopened (a gap), silent or resumed, a frame dropped, an error",
+    "type": "object", "required": ["t_ns", "device", "kind"],
+    "properties": {"t_ns": {"type": "integer"}, "device": {"type": "string"}, "kind": {"type": "string"}},
+}
+
 
 class PortReader:
     """Reads one driver on its own thread until ``stop`` is set (see the module docstring)."""
