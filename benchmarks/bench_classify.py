@@ -10,9 +10,19 @@ Run: ``auvlink bench classify --out DIR`` (or ``python benchmarks/bench_classify
   against points per cloud (64-2048), noise fraction (0-30 %) and the fraction of the surface
   missing (points beyond a random vertical plane removed, 0-50 %: a pass that saw part of the
   object's footprint).
-* With ``--full`` (``quick=False``): accuracy on clouds that recon reconstructs from simulated
-  passes over single objects (:mod:`classify.recon_eval`), and the 2D single-image CNN baseline
-  trained and evaluated on simulated sonar images of the same objects (viewing heading and tilt varied).
+* Accuracy on clouds that recon reconstructs from simulated passes over single objects
+  (:mod:`classify.recon_eval`; other seeds, headings, tilts, altitudes and lateral offsets than any
+  training draw; cached under the cache folder, keyed by the source of the simulator and recon):
+  per-class precision and recall, the look-alike confusions. Quick: 3 headings x 1 tilt x 2
+  altitudes; ``--full``: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets.
+* ``peers``: the inference path and the network against the plain eager port (batch 1 and 32).
+* ``tradeoffs``: points per cloud (the shipped model fed at most 64-2048 points of each recon cloud;
+  duplicates pad sparse clouds, as the inference path would see a denser recon) and, with
+  ``--full``, model width (a model per width trained on the quick budget): inference ms per cloud
+  at batch 1 against the error rate on the recon clouds.
+* With ``--full``: the 2D single-image CNN baseline trained and evaluated on simulated sonar images
+  of the same objects (viewing heading and tilt varied).
+* Smoke (``AUVLINK_BENCH_SMOKE=1``): timing only, few repetitions.
 """
 
 from __future__ import annotations
@@ -24,12 +34,12 @@ from typing import Any
 
 import numpy as np
 import torch
-from _common import best_time, script_main, table, write_json
+from _common import best_time, script_main, smoke, table, write_json
 
 from classify.dataset import catalog_meshes, default_cache_dir, heldout_settings, synthesize_set
 from classify.infer import DEFAULT_MODEL, Classifier
 from classify.pointnet import PointNet, PointNetConfig
-from classify.synthesis import SynthesisSettings, normalize_unit_sphere
+from classify.synthesis import SynthesisSettings, normalize_cloud
 
 THREADS = 2
 
@@ -49,9 +59,9 @@ def _timing(clf: Classifier, quick: bool) -> list[dict[str, Any]]:
     x_ref = {b: torch.from_numpy(rng.normal(size=(b, 1024, 3)).astype(np.float32)) for b in (1, 32)}
     x_own = {b: torch.from_numpy(np.stack([clf.prepare(c) for c in world[:b]])) for b in (1, 32)}
     for b in (1, 32):
-        rep = (20 if quick else 50) if b == 1 else (5 if quick else 10)
+        rep = (3 if smoke() else 20 if quick else 50) if b == 1 else (2 if smoke() else 5 if quick else 10)
         with torch.no_grad():
-            t_ref = _per_cloud_ms(lambda b=b: ref(x_ref[b]), b, rep if b == 1 else 3)
+            t_ref = _per_cloud_ms(lambda b=b: ref(x_ref[b]), b, rep if b == 1 else min(rep, 3))
         t_net = _per_cloud_ms(lambda b=b: clf.model(x_own[b]), b, rep)
         t_path = _per_cloud_ms((lambda: clf.classify(world[0])) if b == 1
                                else (lambda: clf.probabilities(world, batch_size=8)), b, rep)
@@ -61,6 +71,8 @@ def _timing(clf: Classifier, quick: bool) -> list[dict[str, Any]]:
 
 
 def _accuracy(clf: Classifier, clouds: list[np.ndarray], labels: np.ndarray) -> float:
+    """Accuracy on synthesized clouds (stored normalized: back to metres for a fixed-scale model)."""
+    clouds = [c * clf.scale_m for c in clouds] if clf.scale_m > 0 else clouds
     probs = clf.probabilities(clouds, batch_size=16)
     return float((probs.argmax(axis=1) == labels).mean())
 
@@ -93,7 +105,7 @@ def _robustness(clf: Classifier, quick: bool, cache: Path) -> dict[str, list[dic
             a = rng.uniform(0.0, 2 * np.pi)
             d = np.array([np.cos(a), np.sin(a), 0.0])  # a vertical cut plane
             keep = np.argsort(c @ d)[: max(8, round(len(c) * (1 - m)))]
-            clouds.append(normalize_unit_sphere(c[keep]))
+            clouds.append(normalize_cloud(c[keep], 1.0 if clf.scale_m > 0 else 0.0))
         out["missing"].append({"missing_fraction": m, "accuracy": _accuracy(clf, clouds, labs), "n": len(clouds)})
     return out
 
@@ -110,26 +122,68 @@ def _baseline2d(clf: Classifier, quick: bool, cache: Path) -> dict[str, Any]:
             "best_epoch": out.result.best_epoch, **out.report.to_dict()}
 
 
-def _recon(clf: Classifier, quick: bool) -> list[dict[str, Any]]:
-    """Accuracy on clouds recon reconstructs from simulated passes (see classify.recon_eval)."""
-    from classify.evaluate import EvalReport
-    from classify.recon_eval import PassSettings, reconstruct_set
+def _recon(clf: Classifier, clouds: list[Any]) -> dict[str, Any]:
+    """Precision, recall and the look-alike confusions on clouds recon reconstructed."""
+    from classify.recon_eval import evaluate_recon
 
+    rep, missed = evaluate_recon(clf, clouds)
+    sizes = [len(c.points) for c in clouds if len(c.points) >= 8]
+    return {"passes": len(clouds), "not_detected": missed, "median_points": float(np.median(sizes)) if sizes else 0.0,
+            **rep.to_dict()}
+
+
+def _peers(timing: list[dict[str, Any]], width: float, n_points: int) -> list[dict[str, Any]]:
     rows = []
-    base = PassSettings(headings_deg=(10.0, 145.0, 280.0), tilts_deg=(30.0,)) if quick else PassSettings()
-    for label, s in (("pipeline config", base), ("pipeline config, highlight k=4", replace(base, highlight_k=4.0))):
-        clouds = reconstruct_set(clf.class_names, s)
-        got = [c for c in clouds if len(c.points) >= 8]
-        row: dict[str, Any] = {"recon": label, "passes": len(clouds), "detected": len(got)}
-        if got:
-            pred = [clf.class_names.index(clf.classify(c.points)[0]) for c in got]
-            true = [clf.class_names.index(c.class_name) for c in got]
-            rep = EvalReport.from_predictions(clf.class_names, true, pred)
-            row.update({"accuracy": rep.accuracy, "macro_precision": rep.macro()["precision"],
-                        "macro_recall": rep.macro()["recall"], "median_points": float(np.median([len(c.points)
-                                                                                                   for c in got])),
-                        "report": rep.to_dict()})
-        rows.append(row)
+    for t in timing:
+        b = t["batch"]
+        for what, key in (("network", "ours_network_ms"), ("classify path", "ours_classify_ms")):
+            rows.append({"what": f"PointNet inference per cloud, batch {b} ({what})",
+                         "ours": f"width {width}, {n_points} points, batch norm folded, inference_mode",
+                         "ours_s": t[key] / 1e3, "peer": "plain eager PointNet port (width 1, 1024 points, "
+                         "batch norm unfolded, no_grad)", "peer_s": t["eager_full_1024_ms"] / 1e3,
+                         "ratio": t["eager_full_1024_ms"] / t[key]})
+    return rows
+
+
+def _error(clf: Classifier, clouds: list[Any], n: int | None = None) -> float:
+    """Error rate on the detected recon clouds, each fed as ``n`` points (subsampled or padded)."""
+    got = [c for c in clouds if len(c.points) >= 8]
+    rng = np.random.default_rng(3)
+    pts = [c.points if n is None else c.points[rng.choice(len(c.points), n, replace=len(c.points) < n)]
+           for c in got]
+    if n is not None:
+        pts = [normalize_cloud(p, clf.scale_m).astype(np.float32) for p in pts]
+        x = np.stack(pts)
+        with torch.inference_mode():
+            pred = clf.model(torch.from_numpy(x))[0].argmax(dim=1).numpy()
+    else:
+        pred = np.array([clf.class_names.index(k) for k, _ in clf.classify_many(pts)])
+    true = np.array([clf.class_names.index(c.class_name) for c in got])
+    return float((pred != true).mean()) if len(got) else float("nan")
+
+
+def _tradeoffs(clf: Classifier, clouds: list[Any], full: bool, cache: Path) -> list[dict[str, Any]]:
+    rows = []
+    unit, err_name = "ms per cloud at batch 1 (network)", "error rate on recon clouds"
+    for n in (256, 512, 1024, 2048) if not smoke() else (256,):
+        x = torch.from_numpy(np.random.default_rng(0).normal(size=(1, n, 3)).astype(np.float32))
+        t = _per_cloud_ms(lambda x=x: clf.model(x), 1, 20)
+        rows.append({"knob": "points per cloud", "setting": n, "time_s": t / 1e3, "time_unit": unit,
+                     "error": _error(clf, clouds, n), "error_name": err_name, "default": n == clf.n_points})
+    if full:
+        from classify.config import load_train_settings
+        from classify.workflow import train_and_save
+
+        base = load_train_settings(quick=True)
+        for w in (0.125, 0.25, 0.5, 1.0):
+            s = replace(base, train=replace(base.train, width=w, threads=THREADS))
+            out = train_and_save(s, cache / f"bench-width-{w}.pt", cache, progress=False)
+            c = Classifier.load(out.path, device=torch.device("cpu"))
+            x = torch.from_numpy(np.random.default_rng(0).normal(size=(1, c.n_points, 3)).astype(np.float32))
+            t = _per_cloud_ms(lambda c=c, x=x: c.model(x), 1, 20)
+            rows.append({"knob": "model width (quick-budget training)", "setting": w, "time_s": t / 1e3,
+                         "time_unit": unit, "error": _error(c, clouds), "error_name": err_name,
+                         "default": w == clf.model.cfg.width})
     return rows
 
 
@@ -153,18 +207,24 @@ def run(quick: bool, out_dir: Path) -> dict[str, Any]:
     print(table(timing))
     result: dict[str, Any] = {"model": model_note, "width": clf.model.cfg.width, "n_points": clf.n_points,
                               "threads": THREADS, "timing": timing}
-    if DEFAULT_MODEL.is_file():
+    if DEFAULT_MODEL.is_file() and not smoke():
         rob = _robustness(clf, quick, cache)
         for key, rows in rob.items():
             print(f"\naccuracy vs {key}")
             print(table(rows))
         result["robustness"] = rob
-    if not quick and DEFAULT_MODEL.is_file():
-        rec = _recon(clf, quick)
-        print("\naccuracy on clouds recon reconstructs from simulated passes (true poses)")
-        print(table(rec, ["recon", "passes", "detected", "median_points", "accuracy", "macro_precision",
-                          "macro_recall"]))
+    result["peers"] = _peers(timing, clf.model.cfg.width, clf.n_points)
+    if DEFAULT_MODEL.is_file() and not smoke():
+        from classify.recon_eval import reconstruct_set, standard_passes
+
+        clouds = reconstruct_set(clf.class_names, standard_passes(quick), cache_dir=cache)
+        rec = _recon(clf, clouds)
+        print(f"\nrecon clouds ({rec['passes']} passes, {rec['not_detected']} not detected, median "
+              f"{rec['median_points']:.0f} points): accuracy {rec['accuracy']:.3f}, macro precision "
+              f"{rec['macro']['precision']:.3f}, recall {rec['macro']['recall']:.3f}")
         result["recon"] = rec
+        result["tradeoffs"] = _tradeoffs(clf, clouds, not quick, cache)
+        print(table(result["tradeoffs"], ["knob", "setting", "time_s", "error", "default"]))
     if not quick:
         base = _baseline2d(clf, quick, cache)
         print(f"\n2D baseline (single image): accuracy {base['accuracy']:.3f}, macro precision "

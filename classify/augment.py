@@ -72,14 +72,18 @@ def random_scale(points: F32, rng: np.random.Generator, low: float = 0.9, high: 
     return (points * rng.uniform(low, high, size=(len(points), 1, 1))).astype(np.float32)
 
 
-def normalize_batch(points: F32) -> F32:
-    """Each cloud of ``(B, N, 3)`` centred on its mean and divided by its largest norm."""
+def normalize_batch(points: F32, fixed_scale: bool = False) -> F32:
+    """Each cloud of ``(B, N, 3)`` centred on its mean and divided by its largest norm (only centred
+    with ``fixed_scale``: clouds already in metres / a fixed scale, see ``SynthesisSettings.scale_m``)."""
     p = points - points.mean(axis=1, keepdims=True)
+    if fixed_scale:
+        return p.astype(np.float32)
     r = np.linalg.norm(p, axis=2).max(axis=1)
     return (p / np.where(r > 0, r, 1.0)[:, None, None]).astype(np.float32)
 
 
-def plane_cut(points: F32, rng: np.random.Generator, prob: float, max_ratio: float) -> F32:
+def plane_cut(points: F32, rng: np.random.Generator, prob: float, max_ratio: float,
+              fixed_scale: bool = False) -> F32:
     """With probability ``prob`` per cloud, drop the points beyond a random vertical plane (a fraction
     uniform in ``[0, max_ratio)``), fill with copies of kept points, rescale to the unit sphere."""
     b, n, _ = points.shape
@@ -92,16 +96,16 @@ def plane_cut(points: F32, rng: np.random.Generator, prob: float, max_ratio: flo
     ranks = np.where(np.arange(n)[None, :] < n_keep[:, None], np.arange(n)[None, :], pick)
     out = np.take_along_axis(points, np.take_along_axis(order, ranks, axis=1)[:, :, None], axis=1)
     cut = frac > 0
-    out[cut] = normalize_batch(out[cut])
+    out[cut] = normalize_batch(out[cut], fixed_scale)
     out[~cut] = points[~cut]
     return out
 
 
-def augment_batch(points: F32, rng: np.random.Generator, cfg: AugmentConfig) -> F32:
+def augment_batch(points: F32, rng: np.random.Generator, cfg: AugmentConfig, fixed_scale: bool = False) -> F32:
     """All augmentations of ``cfg`` applied to a batch (a new array)."""
     out = np.asarray(points, dtype=np.float32)
     if cfg.cut_prob > 0:
-        out = plane_cut(out, rng, cfg.cut_prob, cfg.cut_max)
+        out = plane_cut(out, rng, cfg.cut_prob, cfg.cut_max, fixed_scale)
     if cfg.yaw:
         out = random_yaw(out, rng)
     if cfg.scale[0] != 1.0 or cfg.scale[1] != 1.0:

@@ -38,13 +38,14 @@ class CloudSet:
     class_names: tuple[str, ...]
     headings_deg: npt.NDArray[np.float64]
     tilts_deg: npt.NDArray[np.float64]
+    scale_m: float = 0.0  # SynthesisSettings.scale_m of the clouds (0: unit sphere)
 
     def __len__(self) -> int:
         return len(self.labels)
 
     def subset(self, idx: npt.NDArray[np.integer[Any]]) -> CloudSet:
         return CloudSet(self.points[idx], self.labels[idx], self.class_names,
-                        self.headings_deg[idx], self.tilts_deg[idx])
+                        self.headings_deg[idx], self.tilts_deg[idx], self.scale_m)
 
 
 def default_cache_dir() -> Path:
@@ -115,7 +116,7 @@ def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: S
         meta.append(dirs)
     d = np.concatenate(meta)
     return CloudSet(np.concatenate(pts).astype(np.float32), np.concatenate(labels), tuple(class_names),
-                    d[:, 0], d[:, 1])
+                    d[:, 0], d[:, 1], settings.scale_m)
 
 
 def heldout_settings(settings: SynthesisSettings, seed: int | None = None) -> SynthesisSettings:

@@ -19,7 +19,7 @@ import torch
 from classify.checkpoint import Checkpoint, load_checkpoint
 from classify.errors import InvalidCloudError
 from classify.pointnet import default_device
-from classify.synthesis import normalize_unit_sphere
+from classify.synthesis import normalize_cloud
 
 DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "pointnet_default.pt"
 
@@ -50,6 +50,7 @@ class Classifier:
         self.class_names = ckpt.class_names
         self.n_points = ckpt.n_points
         self.checkpoint = ckpt
+        self.scale_m = float(ckpt.synthesis.get("scale_m", 0.0) or 0.0)
         self.model = ckpt.model.to(self.device).fused().eval()
 
     @classmethod
@@ -59,12 +60,13 @@ class Classifier:
         return cls(load_checkpoint(Path(path) if path is not None else DEFAULT_MODEL, device), device)
 
     def prepare(self, points: npt.ArrayLike) -> npt.NDArray[np.float32]:
-        """Checked, subsampled, unit-sphere cloud ``(min(n, n_points), 3)`` float32."""
+        """Checked, subsampled, normalized cloud ``(min(n, n_points), 3)`` float32 (unit sphere, or centred
+        and divided by the checkpoint's ``scale_m`` metres)."""
         p = check_cloud(points)
         if len(p) > self.n_points:
             idx = np.random.default_rng(0).choice(len(p), self.n_points, replace=False)
             p = p[np.sort(idx)]
-        return normalize_unit_sphere(p).astype(np.float32)
+        return normalize_cloud(p, self.scale_m).astype(np.float32)
 
     def probabilities(self, clouds: Sequence[npt.ArrayLike], batch_size: int = 8) -> npt.NDArray[np.float32]:
         """Class probabilities ``(len(clouds), k)``; clouds of unequal size run one by one."""

@@ -74,7 +74,7 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
     from recon.trajectory import Trajectory
 
     seed = int(np.random.SeedSequence([s.seed, zlib.crc32(class_name.encode()), round(heading_deg * 100),
-                                       round(tilt_deg * 100), round(altitude * 100), round(lateral * 100)])
+                                       round(tilt_deg * 100), round(altitude * 100), round(lateral * 100) % 2**32])
                .generate_state(1)[0] & 0x7FFFFFFF)
     sonar = SonarConfig(tilt_deg=tilt_deg, window_start=s.window_start, window_length=s.window_length, fps=s.fps,
                         spread_deg=s.spread_deg, rays_per_beam=s.rays_per_beam)
@@ -105,6 +105,14 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
     return np.asarray(best.points, dtype=np.float64)
 
 
+def standard_passes(quick: bool = False) -> PassSettings:
+    """The evaluation passes of ``auvlink eval --recon`` and the benchmark (seed 11; no training draw
+    uses the simulator or recon at all)."""
+    if quick:
+        return PassSettings(headings_deg=(10.0, 145.0, 280.0), tilts_deg=(30.0,), altitudes_m=(4.0, 5.0), seed=11)
+    return PassSettings(altitudes_m=(4.0, 5.0), laterals_m=(-0.7, 0.5), seed=11)
+
+
 def iter_passes(class_names: Sequence[str], s: PassSettings) -> Iterator[tuple[str, float, float, float, float]]:
     for name in class_names:
         for h in s.headings_deg:
@@ -114,15 +122,62 @@ def iter_passes(class_names: Sequence[str], s: PassSettings) -> Iterator[tuple[s
                         yield name, h, tilt, alt, lat
 
 
-def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool = False) -> list[ReconCloud]:
+def _code_hash(s: PassSettings, class_names: Sequence[str]) -> str:
+    """Hash of the settings and of the simulator's and recon's source (recon changes: new clouds)."""
+    import hashlib
+    import json
+    from dataclasses import asdict
+    from pathlib import Path
+
+    import recon
+    from auvlink import pipeline, sim
+
+    h = hashlib.sha256(json.dumps({"s": asdict(s), "classes": list(class_names)}, sort_keys=True).encode())
+    for pkg in (recon, sim):
+        for f in sorted(Path(str(pkg.__file__)).parent.rglob("*.py")):
+            h.update(f.read_bytes())
+    h.update((Path(str(pipeline.__file__)).parent / "process.py").read_bytes())
+    return h.hexdigest()[:20]
+
+
+def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool = False,
+                    cache_dir: Any = None) -> list[ReconCloud]:
+    """Every pass of ``s`` for every class; cached under ``cache_dir`` (keyed by the settings and the
+    source of the simulator and recon) when given."""
+    from pathlib import Path
+
     from tqdm import tqdm
 
     jobs = list(iter_passes(class_names, s))
+    path = Path(cache_dir) / f"recon-{_code_hash(s, class_names)}.npz" if cache_dir is not None else None
+    if path is not None and path.is_file():
+        with np.load(path) as z:
+            parts = np.split(np.asarray(z["points"], dtype=np.float64), z["splits"])
+        return [ReconCloud(*job, p) for job, p in zip(jobs, parts, strict=True)]
     out = []
     for name, h, tilt, alt, lat in tqdm(jobs, desc="simulate+recon", disable=not progress):
         pts = reconstruct_pass(name, h, tilt, alt, lat, s)
         out.append(ReconCloud(name, h, tilt, alt, lat, pts))
+    if path is not None:
+        import os
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")
+        np.savez_compressed(tmp, points=np.concatenate([c.points for c in out]).reshape(-1, 3),
+                            splits=np.cumsum([len(c.points) for c in out])[:-1])
+        os.replace(tmp, path)
     return out
+
+
+def evaluate_recon(clf: Any, clouds: Sequence[ReconCloud], min_points: int = 8) -> tuple[Any, int]:
+    """The classifier's report on the clouds with at least ``min_points`` points, and how many had fewer
+    (passes where recon detected nothing are not classification errors; they are counted apart)."""
+    from classify.evaluate import EvalReport
+
+    got = [c for c in clouds if len(c.points) >= min_points]
+    pred = [clf.class_names.index(k) for k, _ in clf.classify_many([c.points for c in got])] if got else []
+    true = [clf.class_names.index(c.class_name) for c in got]
+    return EvalReport.from_predictions(clf.class_names, true, pred), len(clouds) - len(got)
 
 
 def horizontal_extent(points: npt.NDArray[np.float64]) -> float:

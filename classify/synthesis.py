@@ -84,6 +84,18 @@ class SynthesisSettings:
     candidates: int = 6000
     copies: int = 1
     seed: int = 0
+    # mode "scan" (classify.scan_synth): recon's highlight extension emulated from the beam geometry
+    mode: str = "paper"
+    lateral_m: tuple[float, float] = (-1.0, 1.0)
+    min_cos: tuple[float, float] = (0.0, 0.5)
+    min_height_m: tuple[float, float] = (0.15, 0.15)
+    rays_per_beam: int = 8
+    step_m: float = 0.1
+    onset_margin_m: float = 0.25
+    range_sigma_m: float = 0.01
+    cos_jitter: float = 0.0
+    # > 0: clouds are centred and divided by this many metres (the size stays a feature), not unit-sphere
+    scale_m: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -188,6 +200,14 @@ def front_slope(points: F64, heading_rad: float, elevation_rad: float, altitude:
     return points - delta[:, None] * u_dir
 
 
+def normalize_cloud(points: F64 | F32, scale_m: float = 0.0) -> F64:
+    """Unit sphere (``scale_m <= 0``), else centred on the mean and divided by ``scale_m`` metres."""
+    if scale_m <= 0:
+        return normalize_unit_sphere(points)
+    p = np.asarray(points, dtype=np.float64)
+    return (p - p.mean(axis=0)) / scale_m
+
+
 def normalize_unit_sphere(points: F64 | F32) -> F64:
     """Centre on the mean and divide by the largest norm (a single point maps to the origin)."""
     p = np.asarray(points, dtype=np.float64)
@@ -239,13 +259,29 @@ class MeshSynthesizer:
 
     def view(self, heading_rad: float, tilt_rad: float, settings: SynthesisSettings,
              rng: np.random.Generator) -> tuple[F32, npt.NDArray[np.bool_]]:
-        """One training cloud ``(n_points, 3)`` float32 in the unit sphere, and its noise mask."""
-        surf = self.visible_points(heading_rad, tilt_rad, settings, rng)
+        """One training cloud ``(n_points, 3)`` float32 in the unit sphere, and its noise mask.
+
+        Mode ``scan``: a pass whose highlight extension gave fewer than 8 points is drawn again (up
+        to 20 times; altitude, lateral offset and thresholds are drawn per pass); noise points are a
+        fraction of the surface points found (a sparse cloud keeps its duplicates)."""
+        n = settings.n_points
+        if settings.mode == "scan":
+            from classify.scan_synth import scan_points
+
+            for _ in range(20):
+                surf = scan_points(self.scene, self.vertices, heading_rad, tilt_rad, settings, rng)
+                if len(surf) >= 8:
+                    break
+            else:
+                raise SynthesisError("no highlight extension in 20 passes from this scan direction")
+            n_found = min(len(surf), n)
+        else:
+            surf = self.visible_points(heading_rad, tilt_rad, settings, rng)
+            n_found = n
         if len(surf) == 0:
             raise SynthesisError("no surface is visible from this scan direction")
-        n = settings.n_points
         frac = float(rng.uniform(*settings.noise_fraction))
-        n_noise = min(round(frac * n), n - 1)
+        n_noise = min(round(frac * n_found), n - 1)
         n_surf = n - n_noise
         pick = rng.choice(len(surf), size=n_surf, replace=len(surf) < n_surf)
         surf = surf[pick]
@@ -254,4 +290,4 @@ class MeshSynthesizer:
         cloud = np.concatenate([surf, noise])
         is_noise = np.r_[np.zeros(n_surf, bool), np.ones(n_noise, bool)]
         perm = rng.permutation(n)
-        return normalize_unit_sphere(cloud[perm]).astype(np.float32), is_noise[perm]
+        return normalize_cloud(cloud[perm], settings.scale_m).astype(np.float32), is_noise[perm]

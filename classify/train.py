@@ -117,7 +117,9 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=cfg.lr, epochs=cfg.epochs,
                                                 steps_per_epoch=steps_per_epoch, pct_start=0.15)
     # validation clouds: a fixed subsample (no augmentation)
-    va_pts = normalize_batch(subsample(data.points[va_idx], cfg.n_points, np.random.default_rng(cfg.seed + 1)))
+    fixed = data.scale_m > 0
+    va_pts = normalize_batch(subsample(data.points[va_idx], cfg.n_points, np.random.default_rng(cfg.seed + 1)),
+                             fixed)
     va_lab = data.labels[va_idx]
     history: list[dict[str, float]] = []
     best: tuple[float, float] = (-1.0, float("inf"))
@@ -132,8 +134,8 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
             batch = order[s:s + cfg.batch_size]
             if len(batch) < 2:  # batch norm needs two samples
                 continue
-            pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng))
-            pts = augment_batch(pts, rng, cfg.augment)
+            pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng), fixed)
+            pts = augment_batch(pts, rng, cfg.augment, fixed)
             x = torch.from_numpy(pts).to(device)
             y = torch.from_numpy(data.labels[batch]).to(device)
             logits, trans = model(x)

@@ -30,7 +30,8 @@ class TrainOutcome:
 
 def evaluate_classifier(clf: Classifier, data: CloudSet) -> EvalReport:
     """Classify every cloud of ``data`` through the inference path (labels mapped by class name)."""
-    probs = clf.probabilities(list(data.points), batch_size=16)
+    pts = data.points * data.scale_m if data.scale_m > 0 else data.points  # back to metres
+    probs = clf.probabilities(list(pts), batch_size=16)
     names = list(clf.class_names)
     true = np.array([names.index(data.class_names[k]) for k in data.labels])
     return EvalReport.from_predictions(clf.class_names, true, probs.argmax(axis=1))
