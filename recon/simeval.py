@@ -130,8 +130,9 @@ def evaluate(frames: SimFrames, config: ReconConfig | None = None, radius: float
     return Evaluation(objs, matches, err, mesh_distance(pts, frames.meshes), rec)
 
 
-def nav_drift(scene: Scene, workdir: str, duration: float | None = None) -> dict[str, Any]:
-    """Dead-reckoning error against the truth on a simulated log (the scene's noise, default sensors).
+def nav_drift(scene: Scene, workdir: str, duration: float | None = None, noise: bool | None = None
+              ) -> dict[str, Any]:
+    """Dead-reckoning error against the truth on a simulated log (``noise``: None = the scene's).
 
     The mission is simulated into ``workdir``/nav.mcap and replayed through the pipeline's navigation
     (framers, codecs, :func:`recon.nav.dead_reckon`); errors are horizontal, against the log's true
@@ -147,7 +148,7 @@ def nav_drift(scene: Scene, workdir: str, duration: float | None = None) -> dict
     from recon.nav import dead_reckon
 
     log = Path(workdir) / "nav.mcap"
-    simulate_to_log(scene, log, progress=False, duration=duration, workers=1)
+    simulate_to_log(scene, log, progress=False, duration=duration, workers=1, noise=noise)
     with MissionLogReader(log) as reader:
         setup = MissionSetup.from_metadata(reader.metadata(decode_json=True))
         truth = np.load(io.BytesIO(reader.read_attachment(TRAJECTORY_ATTACHMENT)))
