@@ -42,6 +42,20 @@ def process(log: Path, out: Path, *, speed: float | None, model: Path | None, cl
     return summary
 
 
+def engine_line(summary: dict[str, object]) -> str | None:
+    """Frames processed, time per stage and what was skipped, in one line."""
+    rec, tim, drops = summary.get("recon"), summary.get("timings"), summary.get("drops")
+    if not isinstance(rec, dict) or not isinstance(tim, dict):
+        return None
+    stages = ", ".join(f"{k.removesuffix('_s')} {v:.1f} s" for k, v in tim.items() if k != "total_s")
+    line = f"{rec.get('frames_processed', 0)} sonar frames processed; {stages}; total {tim.get('total_s', 0):.1f} s"
+    if rec.get("frames_without_navigation"):
+        line += f"; {rec['frames_without_navigation']} frames without navigation"
+    if isinstance(drops, dict) and drops:
+        line += f"; skipped as dropped live: {', '.join(f'{k} {v}' for k, v in drops.items())}"
+    return line
+
+
 def scores_line(summary: dict[str, object]) -> str | None:
     """One line of precision/recall against the ground truth, or None without truth."""
     s = summary.get("scores")
@@ -55,6 +69,9 @@ def run(args: argparse.Namespace) -> int:
     summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
                       report=not args.no_report, progress=not args.quiet)
     print(f"{summary['detections']} objects -> {args.out / 'detections.jsonl'}")
+    line = engine_line(summary)
+    if line and not args.quiet:
+        print(line)
     line = scores_line(summary)
     if line:
         print(line)

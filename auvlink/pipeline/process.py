@@ -120,13 +120,16 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     with MissionLogReader(log) as reader:
         meta = reader.metadata(decode_json=True)
         duration = reader.duration_s
+        log_start = reader.start_ns
         dropped = dropped_live(reader)
     setup = MissionSetup.from_metadata(meta)
     live_cfg, t0_ns = live_settings(meta)
     cfg = engine_config or (EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK))
     engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config, classify=classify, model=model,
                     on_detection=on_detection)
+    t_warm = time.perf_counter()
     engine.warm_up()
+    warm_s = time.perf_counter() - t_warm
     replay = Replay(log, speed=speed)
     bar = tqdm(total=round(duration or 0.0, 1), unit="s", desc="replay", disable=not progress,
                leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
@@ -149,7 +152,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
                 engine.advance(t_ns)
                 last_adv = t_ns
                 t_read = time.perf_counter()
-                t = engine._t(t_ns)
+                t = min((t_ns - (log_start or t_ns)) * 1e-9, bar.total or 0.0)
                 if t - shown >= 1.0:
                     bar.update(t - shown)
                     shown = t
@@ -158,7 +161,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
         stats = replay.stats()
         loss = str(getattr(replay, "loss", "") or "")
     bar.close()
-    timings = {"replay_decode_s": decode_s, "navigation_s": engine.times.total("navigation"),
+    timings = {"start_up_s": warm_s, "replay_decode_s": decode_s, "navigation_s": engine.times.total("navigation"),
                "reconstruction_s": engine.times.total("reconstruction"),
                "clustering_s": engine.times.total("clustering"),
                "classification_s": engine.times.total("classification"),
