@@ -67,3 +67,32 @@ def test_a_full_disk_stops_the_run_cleanly_and_keeps_what_was_written(tmp_path: 
         n = sum(1 for _ in reader.messages())
         assert not reader.complete
     assert n > 100  # the chunks written before the disk filled replay
+
+
+def test_sigterm_flushes_the_log_and_the_output_folder(tmp_path: Path) -> None:
+    cfg = vehicle_config(tmp_path)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "auvlink", "live", str(cfg), "--out", str(out), "--backoff-max", "0.2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    try:
+        assert proc.stdout is not None
+        assert "Ctrl-C stops" in proc.stdout.readline()
+        with threads() as pool:
+            stop_sim = threading.Event()
+            st, _, _ = start(pool, lambda: simulate(cfg, stop_sim), stop_sim, "sim")
+            st.join(6.0)  # mid-mission (the pipe object at N 10 m is behind, the reef ahead)
+            proc.send_signal(signal.SIGTERM)
+            stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, stderr
+    assert "report:" in stdout and (out / "report.html").is_file()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["mode"] == "live" and summary["recon"]["frames_processed"] > 20 and not summary["log_loss"]
+    assert len((out / "detections.jsonl").read_text().splitlines()) == summary["detections"] >= 1
+    with MissionLogReader(out / "mission.mcap") as reader:
+        assert reader.complete  # the last chunk and the summary were written
+        assert sum(1 for _ in reader.messages(channels=["sonar"])) >= summary["recon"]["frames"]
