@@ -56,6 +56,14 @@ def arc_columns(geometry: SonarGeometry, frame: NDArray[np.int64], beam: NDArray
     return np.column_stack([o, u, m_ws[:, :, 2], geometry.ranges[row]])
 
 
+def steepest_points(arcs: F64, spread: float) -> F64:
+    """The uncorrected (steepest-ray, exact geometry) points of ``arcs`` (N, 10): e.g. the cloud a
+    classifier trained on uncorrected highlight-extension clouds expects (``DetectedObject.extra``)."""
+    a = np.asarray(arcs, dtype=np.float64).reshape(-1, ARC_COLUMNS)
+    h = 0.5 * spread
+    return np.asarray(a[:, :3] + a[:, 9:10] * (np.cos(h) * a[:, 3:6] + np.sin(h) * a[:, 6:9]), dtype=np.float64)
+
+
 def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, width: float = 0.25) -> F64:
     """Front-slope corrected copy of one object's ``points`` (N, 3) given their ``arcs`` (N, 10)."""
     p = np.asarray(points, dtype=np.float64)

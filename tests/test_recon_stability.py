@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 from recon.errors import GeometryError
 from recon.frames import attitude
-from recon.front_slope import arc_columns, replace_on_arcs
+from recon.front_slope import arc_columns, replace_on_arcs, steepest_points
+from recon.highlight import project
 from recon.pipeline import Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.synthetic import Box, Scene, Sphere, render
@@ -33,7 +34,8 @@ def test_arc_correction_finite_and_translation_invariant(tilt: float, yaw: float
     for off in ((0.0, 0.0), (north, east)):
         pos = np.array([[off[0], off[1], 30.0]])
         arcs = arc_columns(g, frame, beam, row, pos, rot)
-        p = arcs[:, :3] + arcs[:, 9:10] * (np.cos(g.spread / 2) * arcs[:, 3:6] + np.sin(g.spread / 2) * arcs[:, 6:9])
+        p = steepest_points(arcs, g.spread)
+        assert np.allclose(p, project(g, frame, beam, row, pos, rot, "exact"), atol=1e-6)
         p[: n // 4, 2] -= top  # a "top" above some of the points
         q = replace_on_arcs(p, arcs, g.spread, length=50.0, width=50.0)
         assert np.all(np.isfinite(q))
