@@ -14,11 +14,13 @@ Every case is a ``stability`` row ({"case", "ok", "detail"}, docs/HELPERS.md); a
   track 3/2) and level against the random-walk theory.
 - Degenerate inputs (:mod:`_stability_inputs`): empty and all-saturated frames; empty, one-point,
   collinear, zero-extent and planar clouds and a NaN point to DBSCAN (both backends) and to the
-  classifier.
+  classifier. A long survey through the streaming clusterer (every object once, bounded working set,
+  cost per 10 s of mission at 10 h).
 - float32 against float64 projection (near the origin and 1e6 m out), also as a ``tradeoffs`` knob.
 
-Sizes: quick = 10 h x 16 missions, 60 hypothesis examples per property; ``--full`` = 10 h x 64,
-300 examples; smoke (``AUVLINK_BENCH_SMOKE=1``) = 1 h x 4 missions, 10 examples.
+Sizes: quick = 10 h x 16 missions, 60 hypothesis examples per property, a 60-minute streaming survey;
+``--full`` = 10 h x 64, 300 examples, 10 hours of streaming; smoke (``AUVLINK_BENCH_SMOKE=1``) = 1 h x 4
+missions, 10 examples, 10 minutes of streaming.
 """
 
 from __future__ import annotations
@@ -30,16 +32,16 @@ from typing import Any
 
 from _common import script_main, smoke, table, write_json
 from _stability_geometry import float32_cases, onset_cases, pitch_cases, tilt_and_far_cases, wrap_far_cases
-from _stability_inputs import classifier_cases, cloud_cases, frame_cases
+from _stability_inputs import classifier_cases, cloud_cases, frame_cases, streaming_case
 from _stability_nav import run_dead_reckoning
 
 
 def sizes(quick: bool) -> dict[str, Any]:
     if smoke():
-        return {"examples": 10, "hours": 1.0, "runs": 4, "gyro_hz": 5.0, "frames": 60}
+        return {"examples": 10, "hours": 1.0, "runs": 4, "gyro_hz": 5.0, "frames": 60, "stream_min": 10.0}
     if quick:
-        return {"examples": 60, "hours": 10.0, "runs": 16, "gyro_hz": 10.0, "frames": 120}
-    return {"examples": 300, "hours": 10.0, "runs": 64, "gyro_hz": 10.0, "frames": 120}
+        return {"examples": 60, "hours": 10.0, "runs": 16, "gyro_hz": 10.0, "frames": 120, "stream_min": 60.0}
+    return {"examples": 300, "hours": 10.0, "runs": 64, "gyro_hz": 10.0, "frames": 120, "stream_min": 600.0}
 
 
 def nav_plot(nav: dict[str, Any]) -> dict[str, Any]:
@@ -73,6 +75,8 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     rows += section("frames", frame_cases, 20)
     rows += section("clouds", cloud_cases)
     rows += section("classifier", classifier_cases)
+    stream_row, stream = section("streaming", streaming_case, sz["stream_min"])
+    rows.append(stream_row)
     nav = section("dead_reckoning", run_dead_reckoning, sz["hours"], sz["runs"], sz["gyro_hz"])
     rows += nav.pop("rows")
     failed = [r for r in rows if not r["ok"]]
@@ -85,6 +89,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     result = {
         "sizes": sz, "cases": len(rows), "failed": len(failed), "stability": rows, "tradeoffs": trade,
         "dead_reckoning": {k: v for k, v in nav.items() if k != "curves"}, "plots": [nav_plot(nav)],
+        "streaming": stream,
         "section_s": timings, "loadavg": list(os.getloadavg()), "elapsed_s": time.perf_counter() - t0,
     }
     write_json(out_dir, "stability", result)
