@@ -56,6 +56,11 @@ def _pd0(quick: bool) -> tuple[list[dict[str, Any]], dict[str, Any]]:
                            "ours_s": row["seconds"], "peer": f"dolfyn {peer['version']} dolfyn.read",
                            "peer_s": peer["seconds"], "ratio": peer["seconds"] / row["seconds"]}
                           for row in rows[:-1]]
+    if len(rows) >= 2 and rows[1]["what"].startswith("pd0 bulk"):
+        extra.setdefault("peers", []).append(
+            {"what": f"PD0 decode of {path.name} ({n} ensembles)", "ours": rows[1]["what"],
+             "ours_s": rows[1]["seconds"], "peer": rows[0]["what"], "peer_s": rows[0]["seconds"],
+             "ratio": rows[0]["seconds"] / rows[1]["seconds"]})
     return rows, extra
 
 
