@@ -5,7 +5,7 @@ PD0 is measured on the real capture RDI_withBT.000 (../shared/data) through the 
 codec, per frame and through the bulk (vectorized) path; dolfyn reads the same file in its own venv.
 ``peers`` (docs/HELPERS.md contract): seconds per read of the whole file, ours (per-frame codec, bulk)
 against dolfyn, ``ratio = dolfyn / ours``. Smoke mode (``AUVLINK_BENCH_SMOKE=1``): one repeat each,
-fewer sonar and gyro frames.
+fewer sonar and gyro frames, and dolfyn only when its venv is already built.
 """
 
 from __future__ import annotations
@@ -44,7 +44,8 @@ def _pd0(quick: bool) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     if pd0_bulk is not None:
         t_bulk = best_time(lambda: pd0_bulk.decode_file_bulk(data), repeat)
         rows.append({"what": "pd0 bulk decode (auvlink)", "items": n, "seconds": t_bulk, "per_s": n / t_bulk})
-    peer, reason = peer_dolfyn.time_dolfyn(path, repeat=1 if smoke() else 2 if quick else 5)
+    # the smoke run (CI) never builds the peer's venv: that is pip and minutes
+    peer, reason = peer_dolfyn.time_dolfyn(path, repeat=1 if smoke() else 2 if quick else 5, build=not smoke())
     if peer is None:
         extra["dolfyn"] = f"skipped: {reason}"
     else:

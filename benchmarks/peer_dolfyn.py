@@ -39,12 +39,14 @@ def _python() -> Path:
     return VENV / "bin" / "python"
 
 
-def ensure_venv() -> tuple[bool, str]:
-    """Create the dolfyn venv if it is missing. Returns (ok, reason)."""
+def ensure_venv(build: bool = True) -> tuple[bool, str]:
+    """Create the dolfyn venv if it is missing (unless ``build`` is False). Returns (ok, reason)."""
     if _python().exists():
         ok = subprocess.run([str(_python()), "-c", "import dolfyn"], capture_output=True).returncode == 0
         if ok:
             return True, "ok"
+    if not build:
+        return False, f"the dolfyn {VERSION} venv ({VENV}) is not built; `auvlink bench decode` builds it"
     try:
         subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True, capture_output=True)
         subprocess.run(
@@ -58,8 +60,8 @@ def ensure_venv() -> tuple[bool, str]:
     return True, "ok"
 
 
-def time_dolfyn(path: Path, repeat: int = 3) -> tuple[dict[str, float] | None, str]:
-    ok, reason = ensure_venv()
+def time_dolfyn(path: Path, repeat: int = 3, build: bool = True) -> tuple[dict[str, float] | None, str]:
+    ok, reason = ensure_venv(build)
     if not ok:
         return None, reason
     proc = subprocess.run(
