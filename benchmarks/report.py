@@ -204,8 +204,11 @@ def render(results: dict[str, Any], out_dir: Path) -> Path:
              f"<style>{CSS}</style></head><body><h1>auvlink benchmarks</h1>"]
     meta = [{"figure": k, "value": v} for k, v in results.items() if k not in ("stages", "machine")]
     meta += [{"figure": f"machine.{k}", "value": v} for k, v in (results.get("machine") or {}).items()]
-    parts.append("<h2>Run</h2>" + _table(meta, ["figure", "value"]))
-    status = [{"stage": s, "wall_s": r.get("wall_s"), "tradeoff rows": len(r.get("tradeoffs", [])),
+    parts.append("<h2>Run (the latest invocation; stages of earlier runs into this folder are kept)</h2>"
+                 + _table(meta, ["figure", "value"]))
+    status = [{"stage": s, "mode": r.get("mode"), "run_started_utc": r.get("run_started_utc"),
+               "loadavg_1min": r.get("loadavg_1min"), "wall_s": r.get("wall_s"),
+               "tradeoff rows": len(r.get("tradeoffs", [])),
                "peers": len(r.get("peers", [])), "stability cases": len(r.get("stability", [])),
                "stability failures": sum(not c.get("ok") for c in r.get("stability", []))}
               for s, r in stages.items()]

@@ -120,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
             failed.append(stage)
         result["wall_s"] = time.perf_counter() - t0
         result["mode"] = mode
+        result["run_started_utc"] = results["started_utc"]  # stages merged from several runs stay traceable
+        result["loadavg_1min"] = os.getloadavg()[0]
         # high-water mark of this process so far (a stage that raises it is the one that used the memory)
         result["bench_process_peak_rss_MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3
         results["stages"][stage] = result
