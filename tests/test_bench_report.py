@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -81,3 +82,40 @@ def test_cli_rejects_unknown_stage(tmp_path: Path) -> None:
 def test_missing_results_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(AuvlinkError, match=r"results\.json"):
         render_report(tmp_path)
+
+
+def test_a_failing_stage_is_recorded_and_the_others_still_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    import types
+
+    import auvlink.cli.bench as bench
+
+    def fake(stage: str) -> types.ModuleType:
+        mod = types.ModuleType(stage)
+
+        def run(quick: bool, out_dir: Path) -> dict:
+            if stage == "decode":
+                raise RuntimeError("broken on purpose")
+            assert os.environ.get("AUVLINK_BENCH_SMOKE") == "1" and quick
+            return {"tradeoffs": [{"knob": "k", "setting": s, "time_s": t, "time_unit": "frame", "error": e,
+                                   "error_name": "e [m]", "default": s == 2} for s, t, e in ((1, 1.0, 2.0),
+                                                                                            (2, 2.0, 1.0))]}
+
+        mod.run = run  # type: ignore[attr-defined]
+        return mod
+
+    monkeypatch.setenv("AUVLINK_BENCH_SMOKE", "0")
+    monkeypatch.setattr(bench, "load_stage", fake)
+    assert main(["bench", "decode", "sim", "--smoke", "--out", str(tmp_path)]) == 1
+    res = json.loads((tmp_path / "results.json").read_text())
+    assert res["stages"]["decode"]["error"] == "RuntimeError: broken on purpose"
+    assert res["stages"]["sim"]["mode"] == "smoke" and res["stages"]["sim"]["wall_s"] >= 0
+    assert "failed stage(s): decode" in capsys.readouterr().err
+    page = (tmp_path / "bench.html").read_text()
+    assert "stage failed: RuntimeError: broken on purpose" in page
+    assert (tmp_path / "plots" / "tradeoff_sim_k.png").is_file()
+    # a later run of one stage keeps the other stages' results
+    assert main(["bench", "sim", "--smoke", "--out", str(tmp_path)]) == 0
+    res2 = json.loads((tmp_path / "results.json").read_text())
+    assert set(res2["stages"]) == {"decode", "sim"} and res2["command"].startswith("auvlink bench sim --out")
+    assert res2["stages"]["decode"]["error"] == "RuntimeError: broken on purpose"
