@@ -1,0 +1,88 @@
+"""Units of the live loop: the bounded sonar queue drops whole frames and says so; a supervised port
+is reopened with exponential backoff and publishes a watermark that never goes back."""
+
+from __future__ import annotations
+
+import itertools
+import threading
+import time
+from pathlib import Path
+
+from live_helpers import vehicle_config
+
+from auvlink.driver import Driver
+from auvlink.errors import TransportOperationError
+from auvlink.pipeline.live import LiveRun
+from auvlink.pipeline.ports import PortReader
+from auvlink.records import Sample
+from auvlink.transports.base import Transport
+
+
+def test_a_full_sonar_queue_drops_whole_frames_and_counts_them(tmp_path: Path) -> None:
+    live = LiveRun(vehicle_config(tmp_path), tmp_path / "out", sonar_queue=2)
+    frames = [Sample("sonar", "didson", 1000 + i, b"", None) for i in range(5)]
+    for s in frames:
+        live._deliver(s)
+    for i in range(50):  # navigation samples have their own, large queue
+        live._deliver(Sample("gyro", "dsp1760", 2000 + i, b"", None))
+    assert live.sonar_q.qsize() == 2 and live.nav_q.qsize() == 50
+    assert live.drops == {"sonar": 3}
+    assert [e["frame_t_ns"] for e in live.events if e["kind"] == "frame_dropped"] == [1002, 1003, 1004]
+    assert [live.sonar_q.get_nowait().t_host_ns for _ in range(2)] == [1000, 1001]  # the oldest kept, whole
+
+
+class Flaky(Transport):
+    """Delivers one PD6 line per read; the port 'goes' on reads 3 and 4 opens fail twice."""
+
+    schemes = ("flaky",)
+
+    def __init__(self, url: str) -> None:
+        super().__init__(url)
+        self.reads = 0
+        self.opens = 0
+
+    def _open(self) -> None:
+        self.opens += 1
+        if 2 <= self.opens <= 3:
+            raise OSError("no such device")
+
+    def _close(self) -> None:
+        pass
+
+    def _read(self, timeout: float | None) -> bytes:
+        self.reads += 1
+        if self.reads == 3:
+            raise TransportOperationError(f"{self.url}: device gone")
+        time.sleep(0.01)
+        return b":BS,   +100,   -20,   +5,A\r\n"
+
+    def _write(self, data: bytes) -> None:
+        pass
+
+
+def test_a_lost_port_is_reopened_with_backoff_and_the_watermark_moves_on() -> None:
+    stop = threading.Event()
+    got: list[Sample] = []
+    events: list[dict[str, object]] = []
+    drv = Driver("dvl", "pd6", Flaky("flaky://dvl"))
+    reader = PortReader(drv, got.append, stop, on_event=events.append, backoff_initial=0.05, backoff_max=0.1)
+    marks: list[int] = []
+    reader.start()
+    try:
+        t_end = time.monotonic() + 5.0
+        while time.monotonic() < t_end and reader.reopens < 1:
+            marks.append(reader.watermark_ns)
+            time.sleep(0.005)
+        time.sleep(0.1)
+    finally:
+        stop.set()
+        reader.join(5.0)
+    assert not reader.thread.is_alive()
+    kinds = [e["kind"] for e in events]
+    assert kinds[:2] == ["port_lost", "port_reopened"], kinds  # (failed reopenings are not repeated)
+    gap = next(float(e["gap_s"]) for e in events if e["kind"] == "port_reopened")  # type: ignore[arg-type]
+    assert 0.1 <= gap < 1.0  # two failed opens: 0.05 + 0.1 s of backoff at least
+    assert reader.reopens == 1 and reader.failures == 1 and drv.transport.opens == 4  # type: ignore[attr-defined]
+    assert len(got) >= 3 and all(s.record is not None for s in got)
+    assert all(b >= a for a, b in itertools.pairwise(marks))  # never goes back
+    assert reader.watermark_ns == 2**63 - 1  # a stopped reader holds nobody up
