@@ -30,7 +30,7 @@ def mission(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_streaming_finds_what_the_batch_path_finds(mission: Path) -> None:
     batch, _ = run_log_batch(mission)
-    for block in (1, 16):
+    for block in (1, 64):
         res = run_log(mission, progress=False, classify=False, engine_config=EngineConfig(frame_block=block))
         stream = np.array([d.position_ned for d in res.detections]).reshape(-1, 3)
         ref = np.array([o.centroid for o in batch]).reshape(-1, 3)
