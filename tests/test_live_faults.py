@@ -15,7 +15,7 @@ from live_helpers import TRUTH_NE, simulate, start, threads, vehicle_config
 
 from auvlink.pipeline.live import LiveRun
 from auvlink.pipeline.process import MissionResult, run_log
-from auvlink.sim.live import Fault
+from auvlink.sim.faults import Fault
 from logs_format import MissionLogReader
 from logs_format.info import log_info
 

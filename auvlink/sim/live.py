@@ -56,60 +56,6 @@ class Port:
     dropped: int = 0
 
 
-@dataclass(frozen=True)
-class Fault:
-    """A fault injected at ``at_s`` of mission time on the device named (for the live-loop tests):
-    ``close`` closes its port for ``duration_s`` (frames meanwhile are lost) and serves it again at the
-    same place; ``garbage`` writes ``data`` raw into its stream; ``stall`` holds its frames for
-    ``duration_s``, then sends them at once."""
-
-    device: str
-    at_s: float
-    kind: str  # "close" | "garbage" | "stall"
-    duration_s: float = 1.0
-    data: bytes = b""
-
-
-class _Faults:
-    def __init__(self, faults: Any, devices: dict[str, DeviceConfig], ports: dict[str, Port]) -> None:
-        self.todo = sorted(faults, key=lambda f: f.at_s)
-        self.active: list[Fault] = []
-        self.roles = {dev.name: role for role, dev in devices.items()}
-        self.devices, self.ports = devices, ports
-        self.down: set[str] = set()
-        self.held: dict[str, list[bytes]] = {}
-
-    def tick(self, t: float) -> None:
-        while self.todo and self.todo[0].at_s <= t:
-            f = self.todo.pop(0)
-            role = self.roles[f.device]
-            if f.kind == "close":
-                _close(self.ports[role])
-                self.down.add(role)
-            elif f.kind == "garbage":
-                self.ports[role].sink.write(f.data)
-            elif f.kind == "stall":
-                self.held[role] = []
-            self.active.append(f)
-        for f in [f for f in self.active if f.at_s + f.duration_s <= t]:
-            self.active.remove(f)
-            role = self.roles[f.device]
-            if f.kind == "close":
-                self.down.discard(role)
-                self.ports[role] = _open(role, self.devices[role])
-            elif f.kind == "stall":
-                for raw in self.held.pop(role, []):
-                    _send(self.ports[role], raw)
-
-    def send(self, role: str, raw: bytes) -> None:
-        if role in self.down:
-            self.ports[role].dropped += 1
-        elif role in self.held:
-            self.held[role].append(raw)
-        else:
-            _send(self.ports[role], raw)
-
-
 @dataclass
 class LiveResult:
     seconds: float
@@ -259,7 +205,7 @@ def _producer(run: Run, blocks: queue.Queue[list[Event] | None], stop: threading
 def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: float | None = None,
           seed: int | None = None, noise: bool | NoiseConfig | None = None, settings: SimSettings | None = None,
           stop: threading.Event | None = None, ready: threading.Event | None = None,
-          out: IO[str] | None = None, faults: tuple[Fault, ...] = ()) -> LiveResult:
+          out: IO[str] | None = None, faults: tuple[Any, ...] = ()) -> LiveResult:
     """Serve the simulated devices of ``config`` until the run ends or ``stop`` is set."""
     if not speed > 0:
         raise SimError(f"the speed must be > 0, got {speed}")
@@ -288,7 +234,9 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
         thread.start()
         start_ns = run.settings.sensors.start_ns
         t0 = time.monotonic()
-        injected = _Faults(faults, devices, ports)
+        from auvlink.sim.faults import Injector  # tests' fault injection (auvlink.sim.faults.Fault)
+
+        injected = Injector(faults, devices, ports)
         while not stop.is_set():
             try:
                 events = blocks.get(timeout=0.1)
