@@ -84,7 +84,8 @@ def test_a_stalled_sonar_socket_delays_then_bursts_and_the_run_carries_on(
         faulty_run: tuple[Path, MissionResult]) -> None:
     out, result = faulty_run
     dropped = _events(out, "frame_dropped", "sonar")
-    assert result.drops.get("sonar", 0) == len(dropped)  # every drop counted and marked in the log
+    # the burst of 15 frames overflows the 3-frame queue: whole frames dropped, counted, marked in the log
+    assert result.drops.get("sonar", 0) == len(dropped) >= 1
     frames = result.recon_stats["frames"] + len(dropped)
     assert frames == result.replay_stats["sonar"]["samples"]  # nothing else lost
     silent, resumed = _events(out, "port_silent", "sonar"), _events(out, "port_resumed", "sonar")
