@@ -85,7 +85,8 @@ def test_build_rejects_bad_input() -> None:
     for kwargs in ({"window_length_m": 0.0}, {"window_start_m": -1.0}, {"sound_speed": math.nan}):
         args = {"window_start_m": 1.0, "window_length_m": 10.0} | kwargs
         with pytest.raises(EncodeError):
-            didson.build(image(8), **args)
+            didson.build(image(8), args["window_start_m"], args["window_length_m"],
+                         sound_speed=args.get("sound_speed", 1500.0))
     with pytest.raises(EncodeError):
         didson.build(image(8), 1.0, 10.0, frame_index=-1)
 

@@ -196,6 +196,10 @@ def test_record_virtual_ports_then_replay_gives_the_live_samples(tmp_path: Path,
     # publish_time is the sensor's clock where the format has one (PD0 ensemble RTC), else log time
     with MissionLogReader(path) as reader:
         msgs = list(reader.messages())
-    ens_times = [round(pd0.decode(raw).sensor_time * 1e9) for raw in ens]
+    ens_times = []
+    for raw in ens:
+        t_sensor = pd0.decode(raw).sensor_time
+        assert t_sensor is not None
+        ens_times.append(round(t_sensor * 1e9))
     assert [m.publish_time_ns for m in msgs if m.channel == "dvl"] == ens_times
     assert all(m.publish_time_ns == m.log_time_ns for m in msgs if m.channel == "fog")
