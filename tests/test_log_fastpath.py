@@ -147,3 +147,27 @@ def test_replayed_sonar_image_is_a_view_of_the_logged_frame(tmp_path: Path) -> N
         assert np.shares_memory(np.frombuffer(data, np.uint8), s.record.image)
         assert s.record == didson.decode(raw)
     assert stats["framer_frames"] == len(frames) and stats["framer_dropped_bytes"] == 0
+
+
+@pytest.mark.parametrize("sane", [False, True])
+def test_sonar_frame_with_a_signature_inside_matches_the_general_path(sane: bool) -> None:
+    """The image bytes spell the frame signature (a false header, or a sane one: the frame was cut)."""
+    raw = bytearray(FRAMES["didson"][0])
+    for at in (2000, len(raw) - 4, 1024, 13):
+        bad = bytearray(raw)
+        if sane:
+            bad[at - 12 : at - 12 + 1024] = raw[:1024]  # a whole sane header inside the body
+        else:
+            bad[at : at + 4] = b"DDF\x05"
+        _same("didson", [bytes(bad)])
+        _same("didson", [bytes(bad), FRAMES["didson"][1]])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=64), st.integers(0, 70), st.integers(-1, 70))
+def test_has_signature_is_bytes_find(data: bytes, start: int, at: int) -> None:
+    from auvlink.framing.aris import has_signature
+
+    if 0 <= at <= len(data):
+        data = data[:at] + b"DDF\x05" + data[at:]
+    assert has_signature(data, start) == (data.find(b"DDF\x05", start) >= 0)

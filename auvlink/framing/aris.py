@@ -17,6 +17,8 @@ import struct
 from collections.abc import Collection
 from typing import NamedTuple
 
+import numpy as np
+
 from auvlink.codecs.aris_defs import (
     FRAME_HEADER_SIZE,
     MAX_SAMPLES_PER_BEAM,
@@ -25,6 +27,7 @@ from auvlink.codecs.aris_defs import (
     OFF_SIGNATURE,
     PING_MODE_BEAMS,
     SIGNATURE,
+    SIGNATURE_U32,
 )
 from auvlink.framing.base import Framer
 
@@ -60,6 +63,16 @@ def frame_length(buf: bytes | bytearray, pos: int, beams_ok: Collection[int] = A
     if beams not in beams_ok or not 1 <= samples <= MAX_SAMPLES_PER_BEAM:
         return 0
     return FRAME_HEADER_SIZE + beams * samples
+
+
+def has_signature(buf: bytes, start: int) -> bool:
+    """Whether :data:`SIGNATURE` lies whole in ``buf[start:]``; the same answer as ``buf.find``, about
+    twice as fast on image bytes (four aligned u32 comparisons in numpy instead of a byte search)."""
+    for k in range(4):
+        count = (len(buf) - start - k) // 4
+        if count > 0 and (np.frombuffer(buf, "<u4", count, start + k) == SIGNATURE_U32).any():
+            return True
+    return False
 
 
 def scan(
@@ -121,6 +134,8 @@ class ArisFramer(Framer):
 
     def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
         raw = data if isinstance(data, bytes) else bytes(data)
+        if frame_length(raw, 0, self.beams_ok) == len(raw) and not has_signature(raw, OFF_SIGNATURE + 1):
+            return raw  # what scan() finds: a sane header at 0, its length, no other header inside
         step = scan(raw, 0, False, 0, self.beams_ok)  # the first step _extract would take
         return raw if step.kind == FRAME and step.n == len(raw) else None
 
