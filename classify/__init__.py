@@ -4,6 +4,9 @@ Modules (import what you use; torch loads only with the model modules):
 
 - :mod:`classify.synthesis`: training clouds from a mesh per scan direction (Sung et al.:
   back-face culling, hidden-surface removal by ray casting, the front slope, noise, unit sphere).
+- :mod:`classify.scan_synth`: synthesis mode ``scan`` (the shipped model's): a simulated pass over
+  the mesh, reduced to what recon's highlight extension and front-slope correction make of it,
+  from the geometry alone (beam fan ray casting, incidence threshold, detection lag).
 - :mod:`classify.dataset`: :class:`~classify.dataset.CloudSet`, :func:`~classify.dataset.synthesize_set`
   over the object catalog with an on-disk cache, held-out settings, stratified splits.
 - :mod:`classify.pointnet`: :class:`~classify.pointnet.PointNet` (width multiplier, BN folding).

@@ -15,8 +15,17 @@ the reconstruction (``recon.highlight``, exact mode):
 * It is a highlight extension when it is closer than the beam's seabed onset (the steepest ray's
   range to the seabed) minus ``onset_margin_m``; recon then places it on the steepest ray
   (elevation ``+s/2`` in the sonar frame, the beam's azimuth) at that range, jittered by a range
-  bin (``range_sigma_m``). The front slope, the missing far side and the sparse rows follow.
+  bin (``range_sigma_m``) and lengthened by a lag drawn from ``range_bias_m`` (on rendered frames
+  recon's threshold and run length detect a return some bins after the geometric first hit: its
+  points of simulated passes lie 0.06-0.16 m lower than the mesh's top edges).
+  The front slope, the missing far side and the sparse rows follow.
 * Seabed removal: points lower than ``min_height_m`` above the seabed are dropped.
+* Front-slope correction (``correction = "arc"``, what the pipeline applies before it classifies):
+  recon's own :func:`recon.front_slope.replace_on_arcs` moves each point up its range arc to the
+  height of the highest point within ``correction_length_m`` behind it along the beam
+  (``correction_width_m`` across); ``"none"`` keeps the uncorrected steepest-ray cloud. A fraction
+  drawn from ``correction_blend`` of each move is applied: on rendered frames recon's correction
+  leaves part of the slope (its detections lag the geometric first return).
 
 Per view ``A``, ``L``, ``c_min`` and ``min_height_m`` are drawn uniformly from their ranges in
 :class:`classify.synthesis.SynthesisSettings` (``altitude_m``, ``lateral_m``, ``min_cos``,
@@ -53,6 +62,18 @@ def sonar_rays(heading_rad: float, tilt_rad: float, spread_rad: float, k: int) -
     return d_w, d_w[-1]
 
 
+def arc_vectors(heading_rad: float, tilt_rad: float) -> tuple[F64, F64]:
+    """Per beam the unit vector ``u = R_WS [cos th, sin th, 0]`` ``(beams, 3)`` and ``w = R_WS [0, 0, 1]`` (3,):
+    a return at range ``r`` and elevation ``phi`` lies at ``o + r (cos phi u + sin phi w)``."""
+    az = np.radians(np.linspace(-HALF_FOV_DEG, HALF_FOV_DEG, N_BEAMS))
+    ct, st = math.cos(tilt_rad), math.sin(tilt_rad)
+    cp, sp = math.cos(heading_rad), math.sin(heading_rad)
+    r_ws = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+        [[ct, 0.0, -st], [0.0, 1.0, 0.0], [st, 0.0, ct]])
+    u = np.stack([np.cos(az), np.sin(az), np.zeros_like(az)], axis=1) @ r_ws.T
+    return u, r_ws[:, 2].copy()
+
+
 def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, settings: SynthesisSettings,
                 rng: np.random.Generator) -> F64:
     """Highlight-extension points (metres, object frame NED, seabed at ``z = 0``) of one pass."""
@@ -63,6 +84,7 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
     lateral = float(rng.uniform(*settings.lateral_m))
     c_min = float(rng.uniform(*settings.min_cos))
     min_h = float(rng.uniform(*settings.min_height_m))
+    bias = float(rng.uniform(*settings.range_bias_m))
     d, steep = sonar_rays(heading_rad, tilt_rad, spread, settings.rays_per_beam)
     u = np.array([math.cos(heading_rad), math.sin(heading_rad), 0.0])
     w = np.array([-math.sin(heading_rad), math.cos(heading_rad), 0.0])
@@ -84,10 +106,20 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
     if settings.cos_jitter > 0:  # speckle: a return near the threshold passes or fails at random
         cos_a = cos_a * np.exp(settings.cos_jitter * rng.standard_normal(cos_a.shape))
     hit = np.isfinite(t_hit) & (t_hit < r_sea[None]) & (cos_a >= c_min)
-    first = np.where(hit, t_hit, np.inf).min(axis=1)  # (positions, beams)
+    first = np.where(hit, t_hit, np.inf).min(axis=1) + bias  # (positions, beams)
     onset = r_sea.min(axis=0)  # the steepest ray's seabed range per beam
     ok = first < onset[None] - settings.onset_margin_m
     pi, bi = np.nonzero(ok)
     r = first[pi, bi] + rng.normal(0.0, settings.range_sigma_m, size=len(pi))
     pts = origins[pi] + r[:, None] * steep[bi]
-    return np.asarray(pts[-pts[:, 2] >= min_h])
+    keep = -pts[:, 2] >= min_h
+    if settings.correction == "none" or not keep.any():
+        return np.asarray(pts[keep])
+    from recon.front_slope import replace_on_arcs
+
+    u, w_vec = arc_vectors(heading_rad, tilt_rad)
+    pi, bi, r = pi[keep], bi[keep], r[keep]
+    arcs = np.column_stack([origins[pi], u[bi], np.broadcast_to(w_vec, (len(pi), 3)), r])
+    fixed = replace_on_arcs(pts[keep], arcs, spread, settings.correction_length_m, settings.correction_width_m)
+    blend = float(rng.uniform(*settings.correction_blend))  # recon's correction is partial on real frames
+    return np.asarray(pts[keep] + blend * (fixed - pts[keep]), dtype=np.float64)

@@ -94,6 +94,11 @@ class SynthesisSettings:
     onset_margin_m: float = 0.25
     range_sigma_m: float = 0.01
     cos_jitter: float = 0.0
+    range_bias_m: tuple[float, float] = (0.0, 0.0)  # scan mode: detection lag of recon (m of range)
+    correction: str = "none"  # scan mode: "arc" applies recon's front-slope correction (as the pipeline does)
+    correction_length_m: float = 1.0
+    correction_width_m: float = 0.25
+    correction_blend: tuple[float, float] = (1.0, 1.0)  # fraction of the correction applied (drawn per view)
     # > 0: clouds are centred and divided by this many metres (the size stays a feature), not unit-sphere
     scale_m: float = 0.0
 

@@ -77,3 +77,22 @@ def test_scan_without_highlight_raises() -> None:
     synth = MeshSynthesizer(np.asarray(flat.vertices) - [0.5, 0.5, 0.05], np.asarray(flat.triangles))
     with pytest.raises(SynthesisError, match="no highlight"):
         synth.view(0.0, math.radians(30.0), SETTINGS, np.random.default_rng(0))
+
+
+def test_arc_correction_raises_the_front_slope() -> None:
+    from classify.scan_synth import arc_vectors
+
+    tilt, spread = math.radians(30.0), math.radians(14.0)
+    u, w = arc_vectors(0.4, tilt)
+    _, steep = sonar_rays(0.4, tilt, spread, 8)
+    h = spread / 2
+    np.testing.assert_allclose(math.cos(h) * u + math.sin(h) * w, steep, atol=1e-12)  # the arc's top end
+    synth = _box()
+    raw = scan_points(synth.scene, synth.vertices, 0.0, tilt, SETTINGS, np.random.default_rng(1))
+    fixed = scan_points(synth.scene, synth.vertices, 0.0, tilt, replace(SETTINGS, correction="arc"),
+                        np.random.default_rng(1))
+    assert fixed.shape == raw.shape
+    assert np.all(-fixed[:, 2] >= -raw[:, 2] - 1e-9)  # never lowered
+    low_raw, low_fixed = (-raw[:, 2] < H - 0.05).sum(), (-fixed[:, 2] < H - 0.05).sum()
+    assert low_raw > 50 and low_fixed < 0.5 * low_raw  # the slope's points land on the top
+    assert fixed[:, 0].min() > raw[:, 0].min() + 0.2  # and no longer reaches far ahead of the front face

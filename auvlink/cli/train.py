@@ -24,6 +24,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="folder for synthesized clouds (default $AUVLINK_CACHE/classify or ~/.cache/auvlink/classify)")
     p.add_argument("--no-cache", action="store_true", help="synthesize afresh and keep nothing on disk")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--recon-eval", action="store_true",
+                   help="also evaluate on clouds recon reconstructs from simulated passes (stored in the metrics)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -34,11 +36,15 @@ def run(args: argparse.Namespace) -> int:
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
                               args.threads)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
-    out = train_and_save(settings, args.out, cache, progress=not args.quiet)
+    out = train_and_save(settings, args.out, cache, progress=not args.quiet, recon_eval=args.recon_eval)
     m = out.metrics
     print(f"trained {m['epochs_run']} epochs in {m['train_seconds']:.1f} s (synthesis {m['synthesis_seconds']:.1f} s), "
           f"best epoch {m['best_epoch']}, validation accuracy {m['val_accuracy']:.3f}")
     print(f"held-out synthesized clouds ({out.heldout.n}):")
     print(out.heldout.text())
+    if "recon" in m:
+        r = m["recon"]
+        print(f"recon clouds of simulated passes ({r['n']} detected of {r['n_passes']}): accuracy {r['accuracy']:.3f}, "
+              f"macro precision {r['macro']['precision']:.3f}, recall {r['macro']['recall']:.3f}")
     print(f"checkpoint: {out.path} ({out.path.stat().st_size / 1e6:.2f} MB)")
     return 0
