@@ -17,7 +17,10 @@ Its points then leave the working set. Points arriving later within ``eps`` of a
 or within ``footprint_gap`` of its horizontal box, are counted in ``late_points`` and dropped (no
 duplicate objects: a revisit from the next survey line does not make a second object); old noise
 points are pruned after ``noise_keep_s``. Where no object is revisited after it was finalized (and
-noise is not pruned under a growing cluster), streaming returns exactly the batch objects.
+noise is not pruned under a growing cluster), streaming returns exactly the batch objects. The
+finalized objects sit in a grid index (:class:`recon.cluster_index.FinalizedIndex`): the late test
+looks only at those near the new points, so the cost of a poll does not grow with the number of
+objects emitted before it.
 
 Each point may carry ``extra`` columns (e.g. the sonar ray it came from, for the front-slope
 correction); they travel with the point and end up in :attr:`DetectedObject.extra`.
@@ -31,8 +34,8 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 
+from recon.cluster_index import FinalizedIndex
 from recon.errors import ReconError
 
 F64 = NDArray[np.float64]
@@ -210,9 +213,7 @@ class StreamingClusterer:
         self._pts: list[F64] = []
         self._ts: list[F64] = []
         self._ex: list[F64] = []
-        self._final: list[F64] = []
-        self._final_tree: cKDTree | None = None
-        self._boxes: list[tuple[F64, F64]] = []  # horizontal boxes of the finalized objects
+        self._final = FinalizedIndex(self.config.eps, self.config.footprint_gap)
         self._next_id = 0
         self.late_points = 0
         self.pruned_points = 0
@@ -225,13 +226,8 @@ class StreamingClusterer:
         e = _extra(extra, p.shape[0])
         if self._ex and self._ex[0].shape[1] != e.shape[1]:
             raise ReconError(f"extra columns changed from {self._ex[0].shape[1]} to {e.shape[1]}")
-        if self._final_tree is not None:
-            d, _ = self._final_tree.query(p, distance_upper_bound=self.config.eps)
-            late = np.isfinite(d)
-            if self.config.footprint_gap > 0:  # the batch would merge them (merge_footprints)
-                lo, hi = np.array([b[0] for b in self._boxes]), np.array([b[1] for b in self._boxes])
-                sep = np.maximum(0.0, np.maximum(lo[None] - p[:, None, :2], p[:, None, :2] - hi[None]))
-                late |= np.any(np.linalg.norm(sep, axis=2) <= self.config.footprint_gap, axis=1)
+        if len(self._final):  # only the finalized objects near these points are tested (recon.cluster_index)
+            late = self._final.late(p)
             self.late_points += int(late.sum())
             p, t, e = p[~late], t[~late], e[~late]
         self._pts.append(p)
@@ -284,10 +280,7 @@ class StreamingClusterer:
         for pts, ts, ex in done:
             out.append(make_object(self._next_id, pts, ts, ex))
             self._next_id += 1
-            self._final.append(pts)
-            self._boxes.append((pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)))
-        if done:
-            self._final_tree = cKDTree(np.concatenate(self._final))
+            self._final.add(pts)
         return out
 
     def flush(self) -> list[DetectedObject]:

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import open3d as o3d
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from recon.cluster import ClusterConfig, StreamingClusterer, cluster, dbscan_labels, voxel_downsample
 from recon.ply import write_cloud, write_objects, write_ply
@@ -113,3 +115,53 @@ def test_footprint_merge_joins_a_part_seen_apart() -> None:
     merged = cluster(p, t, ClusterConfig(footprint_gap=0.8))
     assert len(apart) == 3 and len(merged) == 2
     assert sorted(o.n_points for o in merged) == [200, 340]
+
+
+def _late_brute(objs: list[np.ndarray], p: np.ndarray, eps: float, gap: float) -> np.ndarray:
+    """The late test against every finalized object (what the clusterer did before its grid index)."""
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(np.concatenate(objs)).query(p, distance_upper_bound=eps)
+    late = np.isfinite(d)
+    if gap > 0:
+        lo = np.array([o[:, :2].min(axis=0) for o in objs])
+        hi = np.array([o[:, :2].max(axis=0) for o in objs])
+        sep = np.maximum(0.0, np.maximum(lo[None] - p[:, None, :2], p[:, None, :2] - hi[None]))
+        late |= np.any(np.linalg.norm(sep, axis=2) <= gap, axis=1)
+    return late
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.sampled_from([0.0, 0.8, 2.5]), st.sampled_from([0.3, 0.5, 1.0]),
+       st.sampled_from([0.0, 1e6]), st.sampled_from([None, 0.5, 3.0]))
+def test_finalized_index_matches_brute_force(seed: int, gap: float, eps: float, far: float,
+                                             cell: float | None) -> None:
+    from recon.cluster_index import FinalizedIndex
+
+    rng = np.random.default_rng(seed)
+    off = np.array([far, -far, 0.0])
+    objs = [c + off + rng.normal(0, rng.uniform(0.05, 1.5, 3), (int(rng.integers(1, 60)), 3))
+            for c in np.column_stack([rng.uniform(0, 60, 25), rng.uniform(-6, 6, 25), np.full(25, 19.5)])]
+    idx = FinalizedIndex(eps, gap, cell)
+    for o in objs:
+        idx.add(o)
+    p = off + np.column_stack([rng.uniform(-3, 63, 3000), rng.uniform(-9, 9, 3000), rng.uniform(18, 21, 3000)])
+    p = np.concatenate([p, objs[0] + rng.normal(0, 0.2, objs[0].shape)])  # some certainly late
+    got, ref = idx.late(p), _late_brute(objs, p, eps, gap)
+    assert ref.any() and not ref.all()
+    assert np.array_equal(got, ref)
+
+
+def test_streaming_revisits_dropped_as_late() -> None:
+    """A second pass over finalized objects adds no object; its points are counted as late."""
+    p, t = _scene(np.random.default_rng(5))
+    sc = StreamingClusterer()
+    out = []
+    for rnd, shift in ((0, 0.0), (1, 70.0)):  # the same points again, 70 s later (the next survey line)
+        for now in np.arange(0.0, 62.0, 1.0):
+            sel = (t >= now - 1.0) & (t < now)
+            sc.add(p[sel], t[sel] + shift)
+            out += sc.poll([now, 0.0 if rnd == 0 else 3.0, 15.0], now + shift)
+    out += sc.flush()
+    assert len(out) == 6
+    assert sc.late_points > 6 * 380
