@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from recon.errors import GeometryError
 from recon.frames import attitude
-from recon.highlight import HighlightConfig, extract, frame_thresholds
+from recon.highlight import HighlightConfig, extract, first_returns, frame_thresholds
 from recon.sonar_geometry import SonarGeometry
 from recon.synthetic import Box, Scene, render, surface_distance
 
@@ -123,3 +123,26 @@ def test_no_nan_for_any_pose(tilt: float, yaw: float, pitch: float, roll: float,
     assert not np.any(np.isnan(on))
     hp = extract(img, pos, rot, on, g, HighlightConfig(geometry=mode, dtype=dtype, min_run=1))  # type: ignore[arg-type]
     assert np.all(np.isfinite(hp.points))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.integers(0, 5), st.integers(1, 40), st.integers(1, 12), st.integers(1, 3),
+       st.sampled_from(["random", "wide", "edges"]))
+def test_skip_search_equals_full_search(seed: int, n_frames: int, n_bins: int, n_beams: int, run: int,
+                                        limit_kind: str) -> None:
+    """The per-column skip finds exactly the returns of the full search, for any limits and run length."""
+    rng = np.random.default_rng(seed)
+    imgs = rng.integers(0, 256, (n_frames, n_bins, n_beams)).astype(np.uint8)
+    imgs[rng.random(imgs.shape) < 0.7] //= 4  # mostly dim, some bright runs
+    if limit_kind == "random":
+        limits = rng.integers(0, n_bins + 1, (n_frames, n_beams))
+    elif limit_kind == "wide":
+        limits = rng.integers(n_bins // 2, n_bins + 1, (n_frames, n_beams))
+    else:
+        limits = rng.choice([0, 1, n_bins - 1, n_bins], (n_frames, n_beams))
+    thr = rng.uniform(20, 120, n_frames)
+    before = imgs.copy()
+    a = first_returns(imgs, limits.astype(np.int64), thr, HighlightConfig(skip=True, min_run=run))
+    b = first_returns(imgs, limits.astype(np.int64), thr, HighlightConfig(skip=False, min_run=run))
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    assert np.array_equal(imgs, before)  # the caller's frames are never written

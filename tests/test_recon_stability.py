@@ -80,3 +80,34 @@ def test_gimbal_lock_rejected_by_reconstructor() -> None:
                                  altitude=[5.0, 5.0])
     with pytest.raises(GeometryError, match="pitch"):
         Reconstructor(g, traj).add_frame(0.5, np.zeros((512, 96), np.uint8))
+
+
+def _top_brute(p: np.ndarray, arcs: np.ndarray, length: float, width: float) -> np.ndarray:
+    """The arc correction's per-point top from every pair of points (O(n^2), small clouds only)."""
+    look = arcs[:, 3:5] / np.linalg.norm(arcs[:, 3:5], axis=1, keepdims=True)
+    d = p[None, :, :2] - p[:, None, :2]  # [i, j] = p_j - p_i
+    along = np.einsum("ijk,ik->ij", d, look)
+    across = np.abs(d[..., 0] * look[:, None, 1] - d[..., 1] * look[:, None, 0])
+    near = np.hypot(d[..., 0], d[..., 1]) <= np.hypot(length, width)
+    ok = (along >= 0) & (along <= length) & (across <= width) & near
+    return np.asarray(np.where(ok, p[None, :, 2], np.inf).min(axis=1), dtype=np.float64)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31), st.integers(1, 700), st.sampled_from([1, 7, 128, 4096]))
+def test_arc_correction_chunked_pairs_same_answer(seed: int, n: int, chunk: int) -> None:
+    g = SonarGeometry.from_degrees(30, 14)
+    rng = np.random.default_rng(seed)
+    rot = attitude(D(rng.uniform(-180, 180, 4)), np.zeros(4), np.zeros(4))
+    pos = np.column_stack([rng.uniform(-3, 3, (4, 2)), np.full(4, 15.0)])
+    frame, beam, row = rng.integers(0, 4, n), rng.integers(0, 96, n), rng.integers(150, 400, n)
+    arcs = arc_columns(g, frame, beam, row, pos, rot)
+    p = steepest_points(arcs, g.spread)
+    p[: n // 3, 2] -= rng.uniform(0, 1, n // 3)
+    p[n // 2 :: 5] = p[n // 2 - 1]  # duplicated points (zero distance pairs)
+    a = replace_on_arcs(p, arcs, g.spread, chunk=chunk)
+    b = replace_on_arcs(p, arcs, g.spread, chunk=n)
+    assert np.array_equal(a, b)
+    top = _top_brute(p, arcs, 1.0, 0.25)
+    moved = np.any(a != p, axis=1)
+    assert np.array_equal(moved, top < p[:, 2])  # moved exactly where a higher point lies behind it
