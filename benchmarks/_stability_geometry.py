@@ -89,6 +89,25 @@ def onset_cases(n: int) -> list[Row]:
     edge = SonarGeometry.from_degrees(30.0, n_beams=9, azimuth_table=tuple(np.linspace(-89.9, 89.9, 9) * DEG))
     rows.append(prop("recon geometry: azimuth edges (beams at +-89.9 deg), onset vs brute-force fan", n, angles,
                      _onset_check(edge)))
+
+    def any_azimuth(az: float, tilt: float, yaw: float, pitch: float, roll: float, alt: float, far: float) -> str:
+        """One beam at an arbitrary azimuth inside the fan: onset vs brute force at any attitude, and (level)
+        the exact highlight point at the onset range on the seabed."""
+        gg = SonarGeometry.from_degrees(tilt, n_beams=1, azimuth_table=(az * DEG,), lever_arm=(0.4, 0.1, 0.3))
+        out = _onset_check(gg)(yaw, pitch, roll, alt, far)
+        pos = np.array([[far, -far, 30.0]])
+        level = attitude(np.array([yaw * DEG]), np.zeros(1), np.zeros(1))
+        r = float(gg.flat_onset_ranges(pos, level, np.array([alt]))[0, 0])
+        p = pos[0] + level[0].apply(gg.mounting.lever) + r * level[0].apply(gg.highlight_directions("exact")[0])
+        err = abs(float(p[2]) - (30.0 + alt)) / r
+        assert err < 1e-12, f"exact highlight point {err:.1e} x range off the seabed at azimuth {az} deg"
+        return out
+
+    rows.append(prop("recon geometry: any azimuth in the fan (+-14.5 deg, one beam), tilt 0-60 deg, any attitude "
+                     "(pitch/roll +-30 deg), 0 or 1e6 m out: onset vs brute-force fan, highlight point on the seabed",
+                     n, st.tuples(st.floats(-14.5, 14.5), st.floats(0, 60), st.floats(-180, 180), st.floats(-30, 30),
+                                  st.floats(-30, 30), st.floats(0.5, 100), st.sampled_from([0.0, 1e6])),
+                     any_azimuth))
     try:
         SonarGeometry.from_degrees(30.0, n_beams=2, azimuth_table=(-math.pi / 2, math.pi / 2))
         rows.append({"case": "recon geometry: azimuth table at +-90 deg rejected", "ok": False,

@@ -5,21 +5,18 @@ Run: ``auvlink bench recon --out DIR`` (or ``python benchmarks/bench_recon.py --
 - Throughput: highlight extraction + projection on 512 x 96 frames of a synthetic survey
   (:mod:`recon.synthetic`, a ray caster on analytic shapes: a 1 m/s straight line at 5 m altitude,
   10 frames/s, an object every ~15 m, so most frames show only seabed), with and without the
-  seabed-onset skip; one thread (threadpoolctl).
-- Accuracy (``accuracy``): the demo scene (8 objects, 5 m altitude, 30 deg tilt) rendered by the
-  simulator (:mod:`recon.simeval`), recon with the true navigation and the pipeline's settings:
-  mean and 95th-percentile distance of the object points to the true meshes for ``exact`` and
-  ``paper`` geometry, front-slope correction on and off; objects found, centroid errors.
-- ``tradeoffs``: the same mission per knob setting (threshold k, threshold kind, geometry, skip,
-  float32/float64, front slope): time per frame of ``Reconstructor.add_frames`` + ``finish`` against
-  the mean point-to-mesh distance.
-- ``peers``: DBSCAN Open3D vs scikit-learn (same labels), extraction with vs without the skip.
-- ``nav``: dead-reckoning drift on a simulated ~1 km survey with the default sensor noise (replayed
-  from a simulated log through the framers and codecs), as a fraction of the distance travelled;
-  ``nav.noise_off``: the same with the noise off (measured 1.6 m over 979 m: the simulator samples
-  the gyro rate instantaneously at 100 Hz while the yaw rate steps at each turn's entry and exit,
-  so each 180 deg turn loses ~0.38 deg of heading whatever the integrator).
-- ``stability``: the reconstruction far from the origin, the arc correction, attitudes rejected.
+  seabed-onset skip; one thread (threadpoolctl, OMP_NUM_THREADS=1) on one core (the process pinned to
+  one CPU with ``sched_setaffinity`` while it is timed); best of several runs, wall and CPU time.
+- Simulated missions (:mod:`_recon_sim`): ``accuracy`` (demo scene, 5 m altitude, 30 deg tilt: mean and
+  95th-percentile point-to-mesh distance, exact / paper x front slope arc / carve / off), ``tradeoffs``
+  (threshold k and kind, geometry, skip, float32/float64, front slope: reconstruction time per frame
+  against the mean distance; DBSCAN eps and voxel size: clustering time per point against splits +
+  merges + missed + spurious), ``scenes`` (the 7-object flat and 5 deg scenes: exactly one cluster per
+  object, worst centroid error), ``nav`` (dead-reckoning drift over >= 1 km, noise on and off).
+- ``peers``: extraction with vs without the skip; DBSCAN Open3D vs scikit-learn (same labels).
+- ``stability``: the reconstruction far from the origin and at the heading wrap, attitudes rejected.
+- ``peak_rss_MB``: this stage's own high-water mark (``VmHWM`` of a child would be cleaner; the
+  stage reads ``ru_maxrss`` before and after).
 """
 
 from __future__ import annotations
@@ -27,7 +24,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
-from dataclasses import replace
+from collections.abc import Callable, Iterator
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -36,12 +33,13 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
 from _common import best_time, script_main, smoke, table, write_json
+from _recon_sim import accuracy, cluster_knobs, demo_frames, knobs, nav, scene_frames, scenes
 
 from recon.cluster import dbscan_labels
 from recon.highlight import HighlightConfig, extract
 from recon.pipeline import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry, paper_minus_exact
-from recon.synthetic import Box, Scene, Sphere, render, surface_distance
+from recon.synthetic import Box, Scene, Sphere, render
 from recon.trajectory import Trajectory
 
 GEOM = SonarGeometry.from_degrees(30.0, 14.0, lever_arm=(0.8, 0.0, 0.2))
@@ -69,130 +67,66 @@ def survey(n_frames: int, seed: int = 7) -> tuple[Scene, Trajectory, np.ndarray,
     return scene, traj, t, imgs
 
 
-def _errors(points: np.ndarray, scene: Scene) -> dict[str, Any]:
-    if points.shape[0] == 0:
-        return {"points": 0, "mean_m": None, "p95_m": None, "far_pct": None}
-    d = surface_distance(points, scene)
-    return {"points": int(points.shape[0]), "mean_m": float(d.mean()), "p95_m": float(np.percentile(d, 95)),
-            "far_pct": float(100.0 * (d > 0.3).mean())}
+@contextlib.contextmanager
+def one_core() -> Iterator[int]:
+    """Pin this process to one CPU while timing (the lowest it may run on); yields that CPU (-1: not pinned)."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield -1
+        return
+    before = os.sched_getaffinity(0)
+    cpu = min(before)
+    os.sched_setaffinity(0, {cpu})
+    try:
+        yield cpu
+    finally:
+        os.sched_setaffinity(0, before)
+
+
+def _timed(fn: Callable[[], Any], reps: int) -> tuple[float, float]:
+    """Best wall and best CPU seconds of ``reps`` calls."""
+    wall = cpu = float("inf")
+    for _ in range(max(1, reps)):
+        w0, c0 = time.perf_counter(), time.process_time()
+        fn()
+        wall, cpu = min(wall, time.perf_counter() - w0), min(cpu, time.process_time() - c0)
+    return wall, cpu
 
 
 def throughput(traj: Trajectory, t: np.ndarray, imgs: np.ndarray, quick: bool) -> list[dict[str, Any]]:
-    """frames/s of the extraction stage and of the whole per-frame pipeline, skip on and off."""
+    """frames/s of the extraction stage and of the whole per-frame pipeline, skip on and off, one core."""
     rows = []
     n = t.size
     pos, rot = traj.pose_at(t)
     onset = GEOM.flat_onset_ranges(pos, rot, traj.altitude_at(t))
-    reps = 1 if smoke() else 3 if quick else 7
-    for skip in (True, False):
-        cfg = HighlightConfig(skip=skip)
-        def stack(cfg: HighlightConfig = cfg) -> None:
-            extract(imgs, pos, rot, onset, GEOM, cfg)
+    reps = 2 if smoke() else 15 if quick else 40
+    with one_core() as cpu:
+        for skip in (True, False):
+            cfg = HighlightConfig(skip=skip)
 
-        sec = best_time(stack, reps)
-        rows.append({"what": "extract+project, one stack", "skip": skip, "frames": n, "seconds": sec,
-                     "frames_per_s": n / sec})
-        block = 64
+            def stack(cfg: HighlightConfig = cfg) -> None:
+                extract(imgs, pos, rot, onset, GEOM, cfg)
 
-        def blocks(cfg: HighlightConfig = cfg, block: int = block) -> None:
-            rc = Reconstructor(GEOM, traj, ReconConfig(highlight=cfg))
-            for k in range(0, n, block):
-                rc.add_frames(t[k : k + block], imgs[k : k + block])
+            block = 64
 
-        sec = best_time(blocks, reps)
-        rows.append({"what": f"Reconstructor.add_frames, blocks of {block}", "skip": skip, "frames": n,
-                     "seconds": sec, "frames_per_s": n / sec})
-        m = min(n, 300)
+            def blocks(cfg: HighlightConfig = cfg, block: int = block) -> None:
+                rc = Reconstructor(GEOM, traj, ReconConfig(highlight=cfg))
+                for k in range(0, n, block):
+                    rc.add_frames(t[k : k + block], imgs[k : k + block])
 
-        def single(cfg: HighlightConfig = cfg, m: int = m) -> None:
-            rc = Reconstructor(GEOM, traj, ReconConfig(highlight=cfg))
-            for k in range(m):
-                rc.add_frame(t[k], imgs[k])
+            m = min(n, 300)
 
-        sec = best_time(single, max(1, reps - 2))
-        rows.append({"what": "Reconstructor.add_frame, one at a time", "skip": skip, "frames": m,
-                     "seconds": sec, "frames_per_s": m / sec})
-    return rows
+            def single(cfg: HighlightConfig = cfg, m: int = m) -> None:
+                rc = Reconstructor(GEOM, traj, ReconConfig(highlight=cfg))
+                for k in range(m):
+                    rc.add_frame(t[k], imgs[k])
 
-
-def _sim_frames(quick: bool) -> Any:
-    """The demo scene rendered by the simulator (smoke: its first 40 s: sphere and box, line 1)."""
-    from auvlink.sim.scene import load_default_scene
-    from recon.simeval import simulate
-
-    return simulate(load_default_scene(), duration=25.0 if smoke() else None)
-
-
-def _pipeline_config() -> ReconConfig:
-    try:
-        from auvlink.pipeline.process import default_recon_config
-    except ImportError:
-        return ReconConfig()
-    cfg = default_recon_config()
-    return cfg if isinstance(cfg, ReconConfig) else ReconConfig()
-
-
-def accuracy(frames: Any) -> list[dict[str, Any]]:
-    """exact / paper x front slope on / off: point-to-mesh distances, objects, centroid errors."""
-    from recon.simeval import evaluate
-
-    base = _pipeline_config()
-    rows = []
-    for geometry in ("exact", "paper"):
-        for fs in (True, False):
-            cfg = replace(base, front_slope=fs, highlight=replace(base.highlight, geometry=geometry))
-            ev = evaluate(frames, cfg)
-            s = ev.summary()
-            rows.append({"geometry": geometry, "front_slope": fs, "points": s["points"], "mean_m": s["mean_m"],
-                         "p95_m": s["p95_m"], "objects": s["objects"], "truth": len(ev.matches),
-                         "exactly_one": s["exactly_one"], "centroid_mean_m": s["centroid_error_mean_m"],
-                         "centroid_max_m": s["centroid_error_max_m"]})
-    return rows
-
-
-def knobs(frames: Any, quick: bool) -> list[dict[str, Any]]:
-    """``tradeoffs`` rows: time per frame (add_frames + finish) against the mean point-to-mesh distance."""
-    from recon.simeval import evaluate
-
-    base = _pipeline_config()
-    hl = base.highlight
-    variants: list[tuple[str, str | float, ReconConfig]] = []
-    for k in (4.0, 8.0) if smoke() else (3.0, 4.0, 6.0, 8.0):
-        variants.append(("threshold k (median + k MAD)", k, replace(base, highlight=replace(hl, k=k))))
-    if not smoke():
-        variants.append(("threshold kind", "mad", base))
-        variants.append(("threshold kind", "percentile",
-                         replace(base, highlight=replace(hl, threshold="percentile"))))
-    for g in ("exact", "paper"):
-        variants.append(("geometry", g, replace(base, highlight=replace(hl, geometry=g))))
-    for skip in (True, False):
-        variants.append(("seabed-onset skip", "on" if skip else "off", replace(base, highlight=replace(hl, skip=skip))))
-    for dt in ("float64", "float32"):
-        variants.append(("dtype", dt, replace(base, highlight=replace(hl, dtype=dt))))
-    slopes = [("arc", base), ("off", replace(base, front_slope=False))]
-    if not smoke():
-        slopes.insert(1, ("carve", replace(base, front_slope_method="carve")))
-    for name, cfg in slopes:
-        variants.append(("front slope", name, cfg))
-    rows = []
-    reps = 1 if smoke() else 2 if quick else 3
-    n = frames.times.size
-    for knob, setting, cfg in variants:
-        holder: dict[str, Any] = {}
-
-        def go(cfg: ReconConfig = cfg, holder: dict[str, Any] = holder) -> None:
-            holder["ev"] = evaluate(frames, cfg)
-
-        sec = best_time(go, reps)
-        ev = holder["ev"]
-        if ev.distances.size == 0:  # no object found: no error to plot
-            continue
-        default = cfg == base
-        rows.append({"knob": knob, "setting": setting, "time_s": sec / n, "time_unit": "s per frame",
-                     "error": float(ev.distances.mean()),
-                     "error_name": "mean point-to-mesh distance [m] (simulated demo scene, true navigation)",
-                     "default": bool(default), "objects": len(ev.objects),
-                     "exactly_one": ev.exactly_one})
+            for what, fn, frames, r in (("extract+project, one stack", stack, n, reps),
+                                        (f"Reconstructor.add_frames, blocks of {block}", blocks, n, max(1, reps // 3)),
+                                        ("Reconstructor.add_frame, one at a time", single, m, max(1, reps // 5))):
+                wall, cpu_s = _timed(fn, r)
+                rows.append({"what": what, "skip": skip, "frames": frames, "seconds": wall,
+                             "frames_per_s": frames / wall, "cpu_s": cpu_s, "frames_per_cpu_s": frames / cpu_s,
+                             "cpu": cpu, "loadavg_1min": os.getloadavg()[0]})
     return rows
 
 
@@ -224,46 +158,6 @@ def _one_thread() -> contextlib.AbstractContextManager[Any]:
     except ImportError:  # scikit-learn brings it; without it OMP_NUM_THREADS=1 above must do
         return contextlib.nullcontext()
     return threadpool_limits(1)
-
-
-def nav(quick: bool) -> dict[str, Any]:
-    """Dead-reckoning drift with the default sensor noise on a simulated survey (see the docstring)."""
-    import tempfile
-
-    from auvlink.sim.scene import loads_scene
-    from recon.simeval import nav_drift
-
-    text = NAV_SCENE.replace("lines = 4", "lines = 1") if smoke() else NAV_SCENE
-    with tempfile.TemporaryDirectory() as tmp:
-        out = nav_drift(loads_scene(text), tmp, duration=25.0 if smoke() else None)
-        if not smoke():  # the same survey with every sensor noise off (wire quantization stays)
-            off = nav_drift(loads_scene(text), tmp, noise=False)
-            out["noise_off"] = off
-    return out
-
-
-NAV_SCENE = """seed = 5
-[seabed]
-depth = 30.0
-slope_deg = 2.0
-slope_azimuth_deg = 45.0
-roughness = 0.02
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 30.0
-line_length = 240.0
-line_spacing = 4.0
-lines = 4
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 1.0
-"""
 
 
 def stability() -> list[dict[str, Any]]:
@@ -305,20 +199,30 @@ def stability() -> list[dict[str, Any]]:
 
 
 def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
+    import resource
+
     t0 = time.perf_counter()
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3
     with _one_thread():
         n = 200 if smoke() else 600 if quick else 2400
         _scene, traj, t, imgs = survey(n)
         render_s = time.perf_counter() - t0
         rows = throughput(traj, t, imgs, quick)
-        print(table(rows, ["what", "skip", "frames", "seconds", "frames_per_s"]))
-        frames = _sim_frames(quick)
+        print(table(rows, ["what", "skip", "frames", "seconds", "frames_per_s", "frames_per_cpu_s", "cpu"]))
+        frames = demo_frames()
         acc = accuracy(frames)
         print()
         print(table(acc))
         knob_rows = knobs(frames, quick)
+        more = scene_frames()
+        scene_rows = scenes(more)
+        knob_rows += cluster_knobs({"demo": frames, **more})
         print()
-        print(table(knob_rows, ["knob", "setting", "time_s", "error", "objects", "exactly_one", "default"]))
+        print(table(knob_rows, ["knob", "setting", "time_s", "time_unit", "error", "objects", "exactly_one",
+                                "default"]))
+        print()
+        print(table(scene_rows, ["scene", "objects", "clusters", "exactly_one", "wrong", "centroid_max_m",
+                                 "worst_object", "within_0.3m", "mean_m", "p95_m"]))
         rc = Reconstructor(GEOM, traj)
         rc.add_frames(t, imgs)
         db = dbscan_peers(rc.raw_points, quick)
@@ -331,21 +235,25 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     print(f"\nnavigation: {drift}")
     frames_seabed_only = 1.0 - rc.frames_with_points / n
     paper_edge = float(paper_minus_exact(GEOM, 8.0)[0])
-    print(f"\nframes showing only seabed: {100 * frames_seabed_only:.0f} %; paper - exact at the fan edge, "
-          f"8 m: {paper_edge:.3f} m; goal >= 5000 frames/s with the skip")
     ext = {r["skip"]: r for r in rows if r["what"].startswith("extract")}
-    peers = [{"what": "highlight extraction + projection (512 x 96 frames, one thread)",
+    print(f"\nframes showing only seabed: {100 * frames_seabed_only:.0f} %; paper - exact at the fan edge, "
+          f"8 m: {paper_edge:.3f} m; extraction + projection on one core {ext[True]['frames_per_s']:.0f} frames/s "
+          f"with the skip, {ext[False]['frames_per_s']:.0f} without (goal >= 5000 with the skip)")
+    peers = [{"what": "highlight extraction + projection (512 x 96 frames, one thread, one core)",
               "ours": "seabed-onset skip", "ours_s": ext[True]["seconds"] / ext[True]["frames"],
               "peer": "full search (no skip)", "peer_s": ext[False]["seconds"] / ext[False]["frames"],
               "ratio": ext[False]["seconds"] / ext[True]["seconds"]}]
     peers += [{"what": f"DBSCAN eps 0.3 m, {d['cloud']} ({d['points']} points)", "ours": "Open3D",
                "ours_s": d["open3d_s"], "peer": "scikit-learn", "peer_s": d["sklearn_s"],
                "ratio": d["sklearn_over_open3d"]} for d in db]
-    result = {"rows": rows, "accuracy": acc, "tradeoffs": knob_rows, "peers": peers, "dbscan": db,
-              "stability": stab, "nav": drift, "frames": n, "sim_frames": int(frames.times.size),
+    result = {"rows": rows, "accuracy": acc, "tradeoffs": knob_rows, "scenes": scene_rows, "peers": peers,
+              "dbscan": db, "stability": stab, "nav": drift, "frames": n, "sim_frames": int(frames.times.size),
               "frames_seabed_only_fraction": frames_seabed_only, "paper_minus_exact_edge_8m": paper_edge,
+              "extract_frames_per_s_skip": ext[True]["frames_per_s"],
+              "extract_frames_per_s_no_skip": ext[False]["frames_per_s"],
               "goal_frames_per_s": 5000, "render_s": render_s, "elapsed_s": time.perf_counter() - t0,
-              "threads": 1, "smoke": smoke()}
+              "threads": 1, "smoke": smoke(), "peak_rss_before_MB": rss0,
+              "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3}
     write_json(out_dir, "recon", result)
     return result
 

@@ -2,11 +2,13 @@
 
 :func:`simulate` renders every sonar frame of a scene's survey with :mod:`auvlink.sim` (the same
 renderer, poses and per-frame seeds as ``auvlink sim``; no log, no wire) and returns them with the
-true trajectory. :func:`evaluate` runs :class:`recon.pipeline.Reconstructor` on them with the true
-navigation and scores the objects against the truth: each true object is matched to the clusters
-whose centroid lies within ``radius`` m horizontally (0 = missed, 2+ = split; a cluster matched by
-two objects = merged), centroid errors are horizontal distances to the object's position (the
-scene's north/east), and point accuracy is the distance of every object point to the true mesh
+true trajectory. :func:`evaluate` runs :class:`recon.pipeline.Reconstructor` on them
+(:func:`reconstruct`) with the true navigation and scores the objects against the truth
+(:func:`match`): each true object is matched to the clusters whose centroid lies within ``radius`` m
+horizontally and nearer to it than to any other object (0 = missed or merged into a neighbour,
+2+ = split; :func:`cluster_errors` counts splits, merges, misses and spurious clusters), centroid
+errors are horizontal distances to the object's position (the scene's north/east), and point
+accuracy is the distance of every object point to the true mesh
 surface (Open3D ``RaycastingScene.compute_distance``). ``auvlink.sim`` is imported lazily, so
 ``recon`` itself never depends on it.
 """
@@ -109,18 +111,59 @@ class Evaluation:
                 "p95_m": float(np.percentile(d, 95)) if d.size else None}
 
 
-def evaluate(frames: SimFrames, config: ReconConfig | None = None, radius: float = 1.5, block: int = 64,
-             trajectory: Trajectory | None = None) -> Evaluation:
-    """Recon on ``frames`` (true navigation unless ``trajectory`` is given), scored against the truth."""
+def reconstruct(frames: SimFrames, config: ReconConfig | None = None, block: int = 64,
+                trajectory: Trajectory | None = None) -> tuple[Reconstructor, list[DetectedObject]]:
+    """Recon on ``frames`` in blocks of ``block`` (true navigation unless ``trajectory`` is given)."""
     rec = Reconstructor(frames.geometry, trajectory or frames.trajectory, config)
     for k in range(0, frames.times.size, block):
         rec.add_frames(frames.times[k : k + block], frames.images[k : k + block])
-    objs = rec.finish()
-    cen = np.array([o.centroid[:2] for o in objs]).reshape(-1, 2)
-    dist = np.linalg.norm(cen[None, :, :] - frames.truth_xy[:, None, :], axis=2)  # (truth, clusters)
-    owner = np.argmin(dist, axis=0) if len(objs) else np.zeros(0, np.int64)
-    matches = [[j for j in range(len(objs)) if dist[i, j] <= radius and owner[j] == i]
-               for i in range(frames.truth_xy.shape[0])]
+    return rec, rec.finish()
+
+
+def object_points(frames: SimFrames, config: ReconConfig | None = None, block: int = 64) -> tuple[F64, F64, F64]:
+    """The points (after seabed removal) that :meth:`Reconstructor.finish` would cluster, with their times
+    and extra columns: the input of the clustering knobs (eps, voxel size) in the benchmark."""
+    rec = Reconstructor(frames.geometry, frames.trajectory, config)
+    for k in range(0, frames.times.size, block):
+        rec.add_frames(frames.times[k : k + block], frames.images[k : k + block])
+    return rec._filtered_pending()
+
+
+def match(objects: list[DetectedObject], truth_xy: F64, radius: float = 1.5) -> list[list[int]]:
+    """Per true object, the clusters whose centroid lies within ``radius`` m of it horizontally and
+    nearer to it than to any other true object (0 = missed, 2+ = split)."""
+    cen = np.array([o.centroid[:2] for o in objects]).reshape(-1, 2)
+    dist = np.linalg.norm(cen[None, :, :] - truth_xy[:, None, :], axis=2)  # (truth, clusters)
+    owner = np.argmin(dist, axis=0) if len(objects) else np.zeros(0, np.int64)
+    return [[j for j in range(len(objects)) if dist[i, j] <= radius and owner[j] == i]
+            for i in range(truth_xy.shape[0])]
+
+
+def cluster_errors(objects: list[DetectedObject], truth_xy: F64, radius: float = 1.5) -> dict[str, int]:
+    """Counts against the truth, each true object counted once: ``splits`` (clusters beyond the first of
+    an object), ``merges`` (objects without a cluster of their own while another object's cluster has
+    points within ``radius / 2`` of them), ``missed`` (no cluster at all), and ``spurious`` clusters
+    (matched to no object); ``wrong`` is their sum (0: every object exactly one cluster)."""
+    m = match(objects, truth_xy, radius)
+    used = {j for js in m for j in js}
+    merges = missed = 0
+    for i, js in enumerate(m):
+        if js:
+            continue
+        near = any(np.linalg.norm(o.points[:, :2] - truth_xy[i], axis=1).min() <= 0.5 * radius for o in objects)
+        merges += int(near)
+        missed += int(not near)
+    splits = sum(max(0, len(js) - 1) for js in m)
+    spurious = sum(j not in used for j in range(len(objects)))
+    return {"splits": splits, "merges": merges, "missed": missed, "spurious": spurious,
+            "wrong": splits + merges + missed + spurious}
+
+
+def evaluate(frames: SimFrames, config: ReconConfig | None = None, radius: float = 1.5, block: int = 64,
+             trajectory: Trajectory | None = None) -> Evaluation:
+    """Recon on ``frames`` (true navigation unless ``trajectory`` is given), scored against the truth."""
+    rec, objs = reconstruct(frames, config, block, trajectory)
+    matches = match(objs, frames.truth_xy, radius)
     err = np.full(frames.truth_xy.shape[0], np.nan)
     for i, m in enumerate(matches):
         if m:

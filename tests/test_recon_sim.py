@@ -10,7 +10,8 @@ within 0.8 m of each other's footprint merged). The 0.3 m half pipe and the 0.5 
 highlights for only a few frames and their first detections lie within ~0.1 m of the seabed
 (height = margin x sin(t + s/2)), hence the small margin and height limit. Measured (true
 navigation): centroid errors 0.10-0.37 m; the box and the half pipe miss the 0.3 m goal (their far
-halves return too weakly to be seen); see the report.
+halves return too weakly to be seen): the goal of 0.3 m for every object is an xfail here; see
+benchmarks/RESULTS.md.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 import pytest
 
 from recon.pipeline import ReconConfig
-from recon.simeval import SimFrames, evaluate, simulate
+from recon.simeval import SimFrames, cluster_errors, evaluate, simulate
 
 pytest.importorskip("open3d")
 
@@ -75,8 +76,31 @@ def test_every_object_exactly_one_cluster_near_truth(mission: SimFrames) -> None
     assert [len(m) for m in ev.matches] == [1] * len(OBJECTS), ev.summary()
     assert ev.exactly_one
     assert len(ev.objects) == len(OBJECTS)  # no spurious cluster either
-    assert np.median(ev.centroid_error) < 0.3, ev.centroid_error  # goal: every one < 0.3 m (not met)
-    assert np.max(ev.centroid_error) < 0.4, ev.centroid_error
+    assert cluster_errors(ev.objects, mission.truth_xy) == {"splits": 0, "merges": 0, "missed": 0, "spurious": 0,
+                                                            "wrong": 0}
+    assert np.median(ev.centroid_error) < 0.3, ev.centroid_error
+    assert np.max(ev.centroid_error) < 0.4, ev.centroid_error  # measured 0.367 m (flat), 0.350 m (5 deg)
+
+
+@pytest.mark.xfail(strict=True, reason="goal not met: the box and the half pipe are 0.34-0.37 m off (only their "
+                                       "near halves return), the other five 0.10-0.29 m")
+def test_every_centroid_within_goal(mission: SimFrames) -> None:
+    ev = evaluate(mission, CONFIG)
+    assert np.max(ev.centroid_error) <= 0.3, ev.centroid_error
+
+
+def test_cluster_errors_counts_each_kind() -> None:
+    from recon.cluster import make_object
+
+    rng = np.random.default_rng(0)
+    truth = np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [30.0, 0.0], [31.5, 0.0]])
+
+    def blob(x: float, y: float, n: int = 40, sx: float = 0.2) -> np.ndarray:
+        return np.column_stack([x + rng.normal(0, sx, n), y + rng.normal(0, 0.2, n), np.full(n, 19.5)])
+
+    pts = [blob(0, 0), blob(9.6, 0), blob(10.4, 0), blob(30.75, 0, 80, 0.5), blob(50, 0)]  # 20 m: missed
+    objs = [make_object(i, p, np.zeros(len(p))) for i, p in enumerate(pts)]
+    assert cluster_errors(objs, truth) == {"splits": 1, "merges": 1, "missed": 1, "spurious": 1, "wrong": 4}
 
 
 def test_front_slope_correction_meets_accuracy_goal(mission: SimFrames) -> None:
