@@ -65,7 +65,7 @@ def steepest_points(arcs: F64, spread: float) -> F64:
 
 
 def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, width: float = 0.25,
-                    chunk: int = 4096) -> F64:
+                    chunk: int = 1024) -> F64:
     """Front-slope corrected copy of one object's ``points`` (N, 3) given their ``arcs`` (N, 10).
 
     The neighbour pairs are formed ``chunk`` points at a time (the same answer for any ``chunk``): a
