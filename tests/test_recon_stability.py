@@ -73,13 +73,34 @@ def test_reconstruction_far_from_origin_matches_near(heading: float) -> None:
         assert np.abs(b.points - [600_000.0, -999_996.0, 0.0] - a.points).max() < 1e-3
 
 
-def test_gimbal_lock_rejected_by_reconstructor() -> None:
+@pytest.mark.parametrize("pitch", [88.0, 89.999, -89.999, 90.0, -90.0])
+def test_gimbal_lock_rejected_by_reconstructor(pitch: float) -> None:
     g = SonarGeometry.from_degrees(30, 14)
     t = np.array([0.0, 1.0])
-    traj = Trajectory.from_euler(t, np.zeros((2, 3)), [0.0, 0.0], [D(88.0), D(88.0)], [0.0, 0.0],
+    traj = Trajectory.from_euler(t, np.zeros((2, 3)), [0.0, 0.0], [D(pitch), D(pitch)], [0.0, 0.0],
                                  altitude=[5.0, 5.0])
     with pytest.raises(GeometryError, match="pitch"):
         Reconstructor(g, traj).add_frame(0.5, np.zeros((512, 96), np.uint8))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(-14.5, 14.5), st.floats(0, 60), st.floats(-180, 180), st.floats(-30, 30), st.floats(-30, 30),
+       st.floats(-1e6, 1e6), st.floats(-1e6, 1e6), st.integers(0, 511))
+def test_any_azimuth_in_the_fan(az: float, tilt: float, yaw: float, pitch: float, roll: float, north: float,
+                                east: float, row: int) -> None:
+    """A beam at any azimuth of the fan: its highlight point 1e6 m out is the near-origin one within 1 mm,
+    and (level) the exact highlight ray at the seabed onset range lies on the seabed."""
+    g = SonarGeometry.from_degrees(tilt, 14, n_beams=1, azimuth_table=(D(az),), lever_arm=(0.6, -0.1, 0.2))
+    rot = attitude(D([yaw]), D([pitch]), D([roll]))
+    one = np.zeros(1, np.int64)
+    far = project(g, one, one, np.array([row]), np.array([[north, east, 20.0]]), rot)
+    near = project(g, one, one, np.array([row]), np.array([[0.0, 0.0, 20.0]]), rot)
+    assert np.all(np.isfinite(far)) and np.abs(far - [north, east, 0.0] - near).max() < 1e-3
+    level = attitude(D([yaw]), [0.0], [0.0])
+    pos = np.array([[north, east, 20.0]])
+    r = g.flat_onset_ranges(pos, level, [5.0])[0, 0]
+    p = pos[0] + level[0].apply(g.mounting.lever) + r * level[0].apply(g.highlight_directions("exact")[0])
+    assert abs(p[2] - 25.0) < 1e-9
 
 
 def _top_brute(p: np.ndarray, arcs: np.ndarray, length: float, width: float) -> np.ndarray:
