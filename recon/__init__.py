@@ -4,8 +4,8 @@ Pure computation on numpy arrays and small frozen dataclasses (no ports, no file
 :mod:`recon.ply`). Modules: :mod:`recon.frames` (attitudes, mountings, RDI frames), :mod:`recon.nav`
 (dead reckoning) and :mod:`recon.trajectory` (pose interpolation), :mod:`recon.sonar_geometry`,
 :mod:`recon.highlight` and :mod:`recon.front_slope` (highlight-extension points), :mod:`recon.seabed`,
-:mod:`recon.cluster`, :mod:`recon.pipeline` (:class:`Reconstructor`), :mod:`recon.ply`,
-:mod:`recon.synthetic` (frames from analytic shapes, for tests and benchmarks) and
+:mod:`recon.cluster` (with :mod:`recon.cluster_index`), :mod:`recon.pipeline` (:class:`Reconstructor`),
+:mod:`recon.ply`, :mod:`recon.synthetic` (frames from analytic shapes, for tests and benchmarks) and
 :mod:`recon.simeval` (recon against the simulator's ground truth; imports ``auvlink.sim`` lazily).
 """
 
