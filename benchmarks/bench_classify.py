@@ -73,7 +73,7 @@ def _timing(clf: Classifier, quick: bool) -> list[dict[str, Any]]:
 def _accuracy(clf: Classifier, clouds: list[np.ndarray], labels: np.ndarray) -> float:
     """Accuracy on synthesized clouds (stored normalized: back to metres for a fixed-scale model)."""
     clouds = [c * clf.scale_m for c in clouds] if clf.scale_m > 0 else clouds
-    probs = clf.probabilities(clouds, batch_size=16)
+    probs = clf.probabilities(clouds, batch_size=16, seabed_depths=[0.0] * len(clouds))  # object frame: seabed z = 0
     return float((probs.argmax(axis=1) == labels).mean())
 
 
@@ -105,7 +105,7 @@ def _robustness(clf: Classifier, quick: bool, cache: Path) -> dict[str, list[dic
             a = rng.uniform(0.0, 2 * np.pi)
             d = np.array([np.cos(a), np.sin(a), 0.0])  # a vertical cut plane
             keep = np.argsort(c @ d)[: max(8, round(len(c) * (1 - m)))]
-            clouds.append(normalize_cloud(c[keep], 1.0 if clf.scale_m > 0 else 0.0))
+            clouds.append(normalize_cloud(c[keep], 1.0 if clf.scale_m > 0 else 0.0, clf.z_ref))
         out["missing"].append({"missing_fraction": m, "accuracy": _accuracy(clf, clouds, labs), "n": len(clouds)})
     return out
 
@@ -152,12 +152,14 @@ def _error(clf: Classifier, clouds: list[Any], n: int | None = None) -> float:
     pts = [c.points if n is None else c.points[rng.choice(len(c.points), n, replace=len(c.points) < n)]
            for c in got]
     if n is not None:
-        pts = [normalize_cloud(p, clf.scale_m).astype(np.float32) for p in pts]
+        pts = [normalize_cloud(p, clf.scale_m, clf.z_ref if clf.scale_m > 0 else "mean",
+                               c.seabed_depth if np.isfinite(c.seabed_depth) else float(p[:, 2].max())
+                               ).astype(np.float32) for p, c in zip(pts, got, strict=True)]
         x = np.stack(pts)
         with torch.inference_mode():
             pred = clf.model(torch.from_numpy(x))[0].argmax(dim=1).numpy()
     else:
-        pred = np.array([clf.class_names.index(k) for k, _ in clf.classify_many(pts)])
+        pred = np.array([clf.class_names.index(k) for k, _ in clf.classify_many(pts, [c.seabed_depth for c in got])])
     true = np.array([clf.class_names.index(c.class_name) for c in got])
     return float((pred != true).mean()) if len(got) else float("nan")
 

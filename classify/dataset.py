@@ -39,13 +39,14 @@ class CloudSet:
     headings_deg: npt.NDArray[np.float64]
     tilts_deg: npt.NDArray[np.float64]
     scale_m: float = 0.0  # SynthesisSettings.scale_m of the clouds (0: unit sphere)
+    z_ref: str = "mean"  # SynthesisSettings.z_ref ("seabed": z is the height above the seabed, not centred)
 
     def __len__(self) -> int:
         return len(self.labels)
 
     def subset(self, idx: npt.NDArray[np.integer[Any]]) -> CloudSet:
         return CloudSet(self.points[idx], self.labels[idx], self.class_names,
-                        self.headings_deg[idx], self.tilts_deg[idx], self.scale_m)
+                        self.headings_deg[idx], self.tilts_deg[idx], self.scale_m, self.z_ref)
 
 
 def default_cache_dir() -> Path:
@@ -75,7 +76,8 @@ def _cache_key(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArray[Any
 
 def synthesize_class(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArray[Any],
                      settings: SynthesisSettings) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float64]]:
-    """Clouds ``(D * copies, N, 3)`` of one mesh and their (heading, tilt) in degrees."""
+    """Clouds ``(<= D * copies, N, 3)`` of one mesh and their (heading, tilt) in degrees (a view that gives
+    no cloud, :class:`SynthesisError` from :meth:`MeshSynthesizer.view`, is left out)."""
     synth = MeshSynthesizer(vertices, triangles)
     dirs = settings.directions
     seeds = np.random.SeedSequence([settings.seed, zlib.crc32(name.encode())]).spawn(
@@ -84,9 +86,14 @@ def synthesize_class(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArr
     for i, (heading, tilt) in enumerate(dirs):
         for c in range(settings.copies):
             rng = np.random.default_rng(seeds[i * settings.copies + c])
-            cloud, _ = synth.view(math.radians(heading), math.radians(tilt), settings, rng)
+            try:
+                cloud, _ = synth.view(math.radians(heading), math.radians(tilt), settings, rng)
+            except SynthesisError:  # a direction the sonar cannot see the object from (a low half pipe)
+                continue
             clouds.append(cloud)
             meta.append((heading, tilt))
+    if not clouds:
+        raise SynthesisError(f"no view of {name!r} gave a cloud (all {len(dirs) * settings.copies} failed)")
     return np.stack(clouds), np.asarray(meta, dtype=np.float64)
 
 
@@ -116,7 +123,7 @@ def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: S
         meta.append(dirs)
     d = np.concatenate(meta)
     return CloudSet(np.concatenate(pts).astype(np.float32), np.concatenate(labels), tuple(class_names),
-                    d[:, 0], d[:, 1], settings.scale_m)
+                    d[:, 0], d[:, 1], settings.scale_m, settings.z_ref)
 
 
 def heldout_settings(settings: SynthesisSettings, seed: int | None = None) -> SynthesisSettings:

@@ -3,7 +3,11 @@
 ``Classifier.load(path).classify(points)`` takes one object's points ``(n, 3)`` in the world frame
 (NED, metres), subsamples them to the model's point count when there are more (a fixed-seed draw:
 same cloud, same answer), centres and scales them into the unit sphere as in training, and returns
-``(class_name, score)`` with the softmax probability as the score. Batch-norm layers are folded
+``(class_name, score)`` with the softmax probability as the score. A model trained on
+seabed-referenced clouds (synthesis ``z_ref = "seabed"``) also takes the depth of the seabed under the
+object (``seabed_depth``, m, NED; recon fits it: :meth:`recon.pipeline.Reconstructor.seabed_depth_at`):
+the object's height above the seabed is then a feature. Without it, the cloud's deepest point stands
+in for the seabed (objects then look shorter than they are: pass the depth). Batch-norm layers are folded
 into their linear layers once at load time; inference runs under ``torch.inference_mode``.
 """
 
@@ -51,6 +55,7 @@ class Classifier:
         self.n_points = ckpt.n_points
         self.checkpoint = ckpt
         self.scale_m = float(ckpt.synthesis.get("scale_m", 0.0) or 0.0)
+        self.z_ref = str(ckpt.synthesis.get("z_ref", "mean") or "mean")
         self.model = ckpt.model.to(self.device).fused().eval()
 
     @classmethod
@@ -59,18 +64,32 @@ class Classifier:
         device = device or default_device()
         return cls(load_checkpoint(Path(path) if path is not None else DEFAULT_MODEL, device), device)
 
-    def prepare(self, points: npt.ArrayLike) -> npt.NDArray[np.float32]:
+    @property
+    def needs_seabed(self) -> bool:
+        """True when the model reads the height above the seabed (pass ``seabed_depth``)."""
+        return self.z_ref == "seabed" and self.scale_m > 0
+
+    def prepare(self, points: npt.ArrayLike, seabed_depth: float | None = None) -> npt.NDArray[np.float32]:
         """Checked, subsampled, normalized cloud ``(min(n, n_points), 3)`` float32 (unit sphere, or centred
-        and divided by the checkpoint's ``scale_m`` metres)."""
+        and divided by the checkpoint's ``scale_m`` metres; z from ``seabed_depth`` for a seabed model)."""
         p = check_cloud(points)
+        if seabed_depth is not None and not np.isfinite(seabed_depth):
+            seabed_depth = None
+        seabed = float(p[:, 2].max()) if seabed_depth is None else float(seabed_depth)
         if len(p) > self.n_points:
             idx = np.random.default_rng(0).choice(len(p), self.n_points, replace=False)
             p = p[np.sort(idx)]
-        return normalize_cloud(p, self.scale_m).astype(np.float32)
+        return normalize_cloud(p, self.scale_m, self.z_ref if self.scale_m > 0 else "mean",
+                               seabed).astype(np.float32)
 
-    def probabilities(self, clouds: Sequence[npt.ArrayLike], batch_size: int = 8) -> npt.NDArray[np.float32]:
-        """Class probabilities ``(len(clouds), k)``; clouds of unequal size run one by one."""
-        prepared = [self.prepare(c) for c in clouds]
+    def probabilities(self, clouds: Sequence[npt.ArrayLike], batch_size: int = 8,
+                      seabed_depths: Sequence[float | None] | None = None) -> npt.NDArray[np.float32]:
+        """Class probabilities ``(len(clouds), k)``; clouds of unequal size run one by one.
+        ``seabed_depths``: per cloud the seabed depth under it (m, NED; None/NaN: unknown)."""
+        depths = list(seabed_depths) if seabed_depths is not None else [None] * len(clouds)
+        if len(depths) != len(clouds):
+            raise InvalidCloudError(f"{len(depths)} seabed depths for {len(clouds)} clouds")
+        prepared = [self.prepare(c, d) for c, d in zip(clouds, depths, strict=True)]
         out = np.zeros((len(prepared), len(self.class_names)), dtype=np.float32)
         with torch.inference_mode():
             i = 0
@@ -84,13 +103,15 @@ class Classifier:
                 i = j
         return out
 
-    def classify(self, points: npt.ArrayLike) -> tuple[str, float]:
-        """``(class_name, score)`` of one object's cloud ``(n, 3)`` (world frame)."""
-        prob = self.probabilities([points])[0]
+    def classify(self, points: npt.ArrayLike, seabed_depth: float | None = None) -> tuple[str, float]:
+        """``(class_name, score)`` of one object's cloud ``(n, 3)`` (world frame, NED m) over a seabed at
+        ``seabed_depth`` (m; None: unknown)."""
+        prob = self.probabilities([points], seabed_depths=[seabed_depth])[0]
         k = int(np.argmax(prob))
         return self.class_names[k], float(prob[k])
 
-    def classify_many(self, clouds: Sequence[npt.ArrayLike]) -> list[tuple[str, float]]:
-        prob = self.probabilities(clouds)
+    def classify_many(self, clouds: Sequence[npt.ArrayLike],
+                      seabed_depths: Sequence[float | None] | None = None) -> list[tuple[str, float]]:
+        prob = self.probabilities(clouds, seabed_depths=seabed_depths)
         ks = prob.argmax(axis=1)
         return [(self.class_names[int(k)], float(prob[i, k])) for i, k in enumerate(ks)]

@@ -52,6 +52,7 @@ class ReconCloud:
     altitude_m: float
     lateral_m: float
     points: npt.NDArray[np.float64]  # (n, 3) world NED; empty when nothing was detected
+    seabed_depth: float = float("nan")  # m NED: the seabed recon fitted under the object (NaN: none)
 
 
 def _base_config() -> Any:
@@ -65,8 +66,9 @@ def _base_config() -> Any:
 
 
 def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altitude: float, lateral: float,
-                     s: PassSettings) -> npt.NDArray[np.float64]:
-    """Points of the object recon detects nearest the origin, world NED (``(0, 3)`` if none)."""
+                     s: PassSettings) -> tuple[npt.NDArray[np.float64], float]:
+    """Points of the object recon detects nearest the origin, world NED (``(0, 3)`` if none), and the
+    depth of the seabed recon fitted under it (m; NaN if none)."""
     from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
     from auvlink.sim.sonar_render import SonarRenderer, frame_rng
     from recon.pipeline import Reconstructor
@@ -100,9 +102,9 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
         rec.add_frame(float(t[i]), renderer.render(pos[i], 0.0, 0.0, 0.0, frame_rng(seed, i)))
     objects = rec.finish()
     if not objects:
-        return np.zeros((0, 3))
+        return np.zeros((0, 3)), float("nan")
     best = min(objects, key=lambda o: float(np.hypot(o.centroid[0], o.centroid[1])))
-    return np.asarray(best.points, dtype=np.float64)
+    return np.asarray(best.points, dtype=np.float64), float(rec.seabed_depth_at(best.centroid[None, :2])[0])
 
 
 def standard_passes(quick: bool = False) -> PassSettings:
@@ -153,18 +155,20 @@ def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool 
     if path is not None and path.is_file():
         with np.load(path) as z:
             parts = np.split(np.asarray(z["points"], dtype=np.float64), z["splits"])
-        return [ReconCloud(*job, p) for job, p in zip(jobs, parts, strict=True)]
+            depths = np.asarray(z["seabed"], dtype=np.float64)
+        return [ReconCloud(*job, p, float(d)) for job, p, d in zip(jobs, parts, depths, strict=True)]
     out = []
     for name, h, tilt, alt, lat in tqdm(jobs, desc="simulate+recon", disable=not progress):
-        pts = reconstruct_pass(name, h, tilt, alt, lat, s)
-        out.append(ReconCloud(name, h, tilt, alt, lat, pts))
+        pts, depth = reconstruct_pass(name, h, tilt, alt, lat, s)
+        out.append(ReconCloud(name, h, tilt, alt, lat, pts, depth))
     if path is not None:
         import os
 
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")
         np.savez_compressed(tmp, points=np.concatenate([c.points for c in out]).reshape(-1, 3),
-                            splits=np.cumsum([len(c.points) for c in out])[:-1])
+                            splits=np.cumsum([len(c.points) for c in out])[:-1],
+                            seabed=np.array([c.seabed_depth for c in out]))
         os.replace(tmp, path)
     return out
 
@@ -175,7 +179,8 @@ def evaluate_recon(clf: Any, clouds: Sequence[ReconCloud], min_points: int = 8) 
     from classify.evaluate import EvalReport
 
     got = [c for c in clouds if len(c.points) >= min_points]
-    pred = [clf.class_names.index(k) for k, _ in clf.classify_many([c.points for c in got])] if got else []
+    pred = [clf.class_names.index(k) for k, _ in clf.classify_many([c.points for c in got],
+                                                                  [c.seabed_depth for c in got])] if got else []
     true = [clf.class_names.index(c.class_name) for c in got]
     return EvalReport.from_predictions(clf.class_names, true, pred), len(clouds) - len(got)
 

@@ -95,12 +95,22 @@ class SynthesisSettings:
     range_sigma_m: float = 0.01
     cos_jitter: float = 0.0
     range_bias_m: tuple[float, float] = (0.0, 0.0)  # scan mode: detection lag of recon (m of range)
+    # scan mode detection: "cos" (a ray's own incidence against min_cos) or "energy" (the returns of a beam's
+    # rays summed per range bin, cos^2 (r0 / r)^2 / rays, against a threshold drawn from energy_threshold,
+    # held for min_run bins: as the sonar image and recon's run-length threshold see them)
+    detect: str = "cos"
+    energy_threshold: tuple[float, float] = (0.02, 0.1)
+    bin_m: float = 10.0 / 512
+    min_run: int = 2
     correction: str = "none"  # scan mode: "arc" applies recon's front-slope correction (as the pipeline does)
     correction_length_m: float = 1.0
     correction_width_m: float = 0.25
     correction_blend: tuple[float, float] = (1.0, 1.0)  # fraction of the correction applied (drawn per view)
     # > 0: clouds are centred and divided by this many metres (the size stays a feature), not unit-sphere
     scale_m: float = 0.0
+    # "mean": centred on the mean in 3D; "seabed" (needs scale_m > 0): centred horizontally only, z kept as
+    # the height above the local seabed (the object's height is a feature; recon knows the seabed)
+    z_ref: str = "mean"
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -205,11 +215,20 @@ def front_slope(points: F64, heading_rad: float, elevation_rad: float, altitude:
     return points - delta[:, None] * u_dir
 
 
-def normalize_cloud(points: F64 | F32, scale_m: float = 0.0) -> F64:
-    """Unit sphere (``scale_m <= 0``), else centred on the mean and divided by ``scale_m`` metres."""
+def normalize_cloud(points: F64 | F32, scale_m: float = 0.0, z_ref: str = "mean", seabed_z: float = 0.0) -> F64:
+    """Unit sphere (``scale_m <= 0``), else centred on the mean and divided by ``scale_m`` metres.
+
+    ``z_ref = "seabed"`` (with ``scale_m > 0``): centred on the mean horizontally only; z becomes
+    ``(z - seabed_z) / scale_m``, the (NED, so negative) height above a seabed at depth ``seabed_z``.
+    """
     if scale_m <= 0:
         return normalize_unit_sphere(points)
     p = np.asarray(points, dtype=np.float64)
+    if z_ref == "seabed":
+        c = np.array([*p[:, :2].mean(axis=0), seabed_z]) if len(p) else np.array([0.0, 0.0, seabed_z])
+        return (p - c) / scale_m
+    if z_ref != "mean":
+        raise SynthesisError(f"z_ref must be 'mean' or 'seabed', not {z_ref!r}")
     return (p - p.mean(axis=0)) / scale_m
 
 
@@ -295,4 +314,4 @@ class MeshSynthesizer:
         cloud = np.concatenate([surf, noise])
         is_noise = np.r_[np.zeros(n_surf, bool), np.ones(n_noise, bool)]
         perm = rng.permutation(n)
-        return normalize_cloud(cloud[perm], settings.scale_m).astype(np.float32), is_noise[perm]
+        return normalize_cloud(cloud[perm], settings.scale_m, settings.z_ref).astype(np.float32), is_noise[perm]

@@ -118,8 +118,9 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
                                                 steps_per_epoch=steps_per_epoch, pct_start=0.15)
     # validation clouds: a fixed subsample (no augmentation)
     fixed = data.scale_m > 0
+    keep_z = fixed and data.z_ref == "seabed"
     va_pts = normalize_batch(subsample(data.points[va_idx], cfg.n_points, np.random.default_rng(cfg.seed + 1)),
-                             fixed)
+                             fixed, keep_z)
     va_lab = data.labels[va_idx]
     history: list[dict[str, float]] = []
     best: tuple[float, float] = (-1.0, float("inf"))
@@ -134,8 +135,8 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
             batch = order[s:s + cfg.batch_size]
             if len(batch) < 2:  # batch norm needs two samples
                 continue
-            pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng), fixed)
-            pts = augment_batch(pts, rng, cfg.augment, fixed)
+            pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng), fixed, keep_z)
+            pts = augment_batch(pts, rng, cfg.augment, fixed, keep_z)
             x = torch.from_numpy(pts).to(device)
             y = torch.from_numpy(data.labels[batch]).to(device)
             logits, trans = model(x)

@@ -33,7 +33,7 @@ class TrainOutcome:
 def evaluate_classifier(clf: Classifier, data: CloudSet) -> EvalReport:
     """Classify every cloud of ``data`` through the inference path (labels mapped by class name)."""
     pts = data.points * data.scale_m if data.scale_m > 0 else data.points  # back to metres
-    probs = clf.probabilities(list(pts), batch_size=16)
+    probs = clf.probabilities(list(pts), batch_size=16, seabed_depths=[0.0] * len(pts))  # object frame: seabed z = 0
     names = list(clf.class_names)
     true = np.array([names.index(data.class_names[k]) for k in data.labels])
     return EvalReport.from_predictions(clf.class_names, true, probs.argmax(axis=1))

@@ -76,6 +76,7 @@ class Reconstructor:
         self.config = config or ReconConfig()
         self._pending: list[tuple[F64, F64, F64]] = []
         self._seabed: list[F64] = []
+        self._n_seabed = 0  # rows in self._seabed (summing them per frame grew with the mission)
         self._raw: list[F64] = []
         self._hist_origin: list[F64] = []
         self._hist_range: list[F64] = []
@@ -100,6 +101,7 @@ class Reconstructor:
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         if p.shape[0]:
             self._seabed.append(p)
+            self._n_seabed += p.shape[0]
 
     def add_frame(self, t: float, image: NDArray[np.uint8]) -> int:
         """One frame; returns the number of highlight-extension points it gave."""
@@ -167,7 +169,7 @@ class Reconstructor:
 
     def _seabed_model(self, pos: F64) -> SeabedModel | None:
         """Seabed model around ``pos`` for the onset, refitted when the data or the area changed."""
-        n_sb = sum(a.shape[0] for a in self._seabed)
+        n_sb = self._n_seabed
         lo, hi = pos[:, :2].min(axis=0), pos[:, :2].max(axis=0)
         cached = self._onset_cache
         if cached is not None:
@@ -224,6 +226,24 @@ class Reconstructor:
     @property
     def seabed_points(self) -> F64:
         return np.concatenate(self._seabed) if self._seabed else np.zeros((0, 3))
+
+    def seabed_depth_at(self, xy: ArrayLike, radius: float = 8.0) -> F64:
+        """Depth (m, NED) of the seabed fitted under each horizontal position ``xy`` ``(n, 2)`` from the
+        seabed points within ``radius`` m (DVL and sonar seabed returns); NaN where there are too few."""
+        q = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        out = np.full(q.shape[0], np.nan)
+        sb = self.seabed_points
+        if q.shape[0] == 0 or sb.shape[0] < self.config.seabed.min_points:
+            return out
+        for i, c in enumerate(q):  # one small fit per object (a handful per poll)
+            near = np.all(np.abs(sb[:, :2] - c) <= radius, axis=1)
+            if near.sum() < self.config.seabed.min_points:
+                continue
+            try:
+                out[i] = float(SeabedModel.fit(sb[near], self.config.seabed).depth_at(c[None])[0])
+            except ReconError:
+                continue
+        return out
 
     @property
     def _arc(self) -> bool:

@@ -22,9 +22,9 @@ catalog = pytest.importorskip("auvlink.sim.catalog")
 #: a `--quick` retrain (half the headings, one pass per direction, 12 epochs: about 40 s here) must reach
 #: the shipped model's held-out accuracy minus this (measured: 0.669 against 0.840)
 QUICK_TOLERANCE = 0.25
-#: the issue's goal on clouds reconstructed from simulated missions is 0.95; NOT met yet: the shipped model
-#: reaches precision 0.54, recall 0.56 (489 clouds of 512 passes, recon of 2026-11-22). This floor guards it.
-RECON_FLOOR = 0.5
+#: the issue's goal on clouds reconstructed from simulated missions is 0.95; the shipped model reaches
+#: precision 0.989, recall 0.988 (489 clouds of 512 passes, recon of 2026-11-23, recon's fitted seabed)
+RECON_FLOOR = 0.95
 
 
 @pytest.fixture(scope="module")
@@ -39,13 +39,13 @@ def test_shipped_model_small_and_complete(shipped: Classifier) -> None:
     ck = load_checkpoint(DEFAULT_MODEL)
     assert ck.class_names == tuple(catalog.CLASSES)
     assert ck.synthesis["mode"] == "scan" and ck.synthesis["correction"] == "arc"
+    assert ck.synthesis["detect"] == "energy" and ck.synthesis["z_ref"] == "seabed" and shipped.needs_seabed
     assert len(ck.synthesis["headings_deg"]) == 18 and len(ck.synthesis["tilts_deg"]) == 4
     assert ck.train["width"] > 0 and ck.metrics["epochs_run"] >= 1
     held = ck.metrics["heldout"]
     assert held["n"] >= 8 * 72
-    # scan-mode clouds at high detection thresholds keep little of an object (measured 0.864 / 0.840;
-    # sphere/hemisphere and pipe/half_pipe carry the errors)
-    assert held["macro"]["precision"] >= 0.8 and held["macro"]["recall"] >= 0.8
+    # held-out synthesized clouds (other headings, tilts, altitudes, seed): measured 0.954 / 0.953
+    assert held["macro"]["precision"] >= 0.9 and held["macro"]["recall"] >= 0.9
     rec = ck.metrics["recon"]  # clouds recon reconstructed from simulated passes, at training time
     assert rec["n"] >= 0.8 * rec["n_passes"] >= 400
     assert rec["macro"]["precision"] >= RECON_FLOOR and rec["macro"]["recall"] >= RECON_FLOOR
@@ -59,8 +59,8 @@ def test_shipped_model_names_unseen_views(shipped: Classifier) -> None:
         synth = MeshSynthesizer(*catalog.mesh_for(name))
         for heading, tilt in ((37.0, 24.0), (213.0, 41.0)):
             cloud, _ = synth.view(math.radians(heading), math.radians(tilt), settings, rng)
-            # a world-frame cloud: back to metres and moved far from the origin
-            label, score = shipped.classify(cloud.astype(np.float64) * settings.scale_m + [512.0, -40.0, 25.0])
+            # a world-frame cloud: back to metres and moved far from the origin (seabed at 25 m)
+            label, score = shipped.classify(cloud.astype(np.float64) * settings.scale_m + [512.0, -40.0, 25.0], 25.0)
             right += label == name
             assert 0.0 < score <= 1.0
     assert right >= 12  # of 16 (measured 14; chance is 2)
@@ -71,12 +71,12 @@ def test_shipped_model_names_reconstructed_clouds(shipped: Classifier) -> None:
     s = PassSettings(seed=2027, run_in=11.0)
     right, seen = 0, 0
     for i, name in enumerate(catalog.CLASSES):
-        pts = reconstruct_pass(name, 30.0 + 41.0 * i, (27.0, 33.0)[i % 2], (4.2, 4.8)[i % 3 % 2], 0.3, s)
+        pts, seabed = reconstruct_pass(name, 30.0 + 41.0 * i, (27.0, 33.0)[i % 2], (4.2, 4.8)[i % 3 % 2], 0.3, s)
         if len(pts) >= 8:
             seen += 1
-            right += shipped.classify(pts)[0] == name
-    # the goal is all but one; the shipped model names 3 of 8 (chance: 1) -- see RECON_FLOOR
-    assert seen >= 7 and right >= 3, (right, seen)
+            right += shipped.classify(pts, seabed)[0] == name
+    # recon's own seabed fit gives the heights; measured: all that were detected named right (chance: 1 in 8)
+    assert seen >= 7 and right >= seen - 1, (right, seen)
 
 
 def test_quick_retrain_reproduces_accuracy(shipped: Classifier, tmp_path: Path) -> None:
@@ -98,7 +98,8 @@ def test_eval_cli_writes_report(shipped: Classifier, tmp_path: Path) -> None:
     out = tmp_path / "eval"
     assert main(["eval", "--quick", "--out", str(out), "--cache", str(tmp_path / "cache")]) == 0
     report = json.loads((out / "eval.json").read_text())
-    assert report["n"] == 8 * 6 * 2 and report["class_names"] == list(catalog.CLASSES)
+    # 8 classes x 6 headings x 2 tilts, less the views from which a low half pipe gives no highlight at all
+    assert 8 * 6 * 2 - 6 <= report["n"] <= 8 * 6 * 2 and report["class_names"] == list(catalog.CLASSES)
     assert set(report["lookalike_pairs"]) == {"sphere/hemisphere", "pipe/half_pipe"}
     assert report["macro"]["recall"] >= 0.7  # measured 0.78
     assert (out / "confusion.png").read_bytes()[:4] == b"\x89PNG"

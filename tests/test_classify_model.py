@@ -10,7 +10,7 @@ import torch
 
 from classify.augment import AugmentConfig, augment_batch, point_dropout, random_yaw
 from classify.checkpoint import load_checkpoint, save_checkpoint
-from classify.errors import CheckpointError, InvalidCloudError
+from classify.errors import CheckpointError, InvalidCloudError, SynthesisError
 from classify.evaluate import EvalReport, plot_confusion
 from classify.infer import Classifier, check_cloud
 from classify.pointnet import PointNet, PointNetConfig, orthogonality_loss
@@ -164,3 +164,39 @@ def test_plane_cut_removes_one_side_and_rescales() -> None:
     assert np.allclose(y.mean(axis=1), 0.0, atol=0.05)
     assert all(len(np.unique(c, axis=0)) < 300 for c in y)
     assert np.array_equal(plane_cut(x, np.random.default_rng(1), prob=0.0, max_ratio=0.4), x)
+
+
+def test_seabed_referenced_normalization_keeps_height() -> None:
+    from classify.augment import normalize_batch
+    from classify.synthesis import normalize_cloud
+
+    p = np.array([[10.0, 5.0, 19.0], [12.0, 7.0, 19.5]])  # NED: 1.0 and 0.5 m above a seabed at 20 m
+    n = normalize_cloud(p, 2.0, "seabed", 20.0)
+    np.testing.assert_allclose(n, [[-0.5, -0.5, -0.5], [0.5, 0.5, -0.25]])
+    np.testing.assert_allclose(normalize_cloud(p, 2.0), [[-0.5, -0.5, -0.125], [0.5, 0.5, 0.125]])
+    with pytest.raises(SynthesisError, match="z_ref"):
+        normalize_cloud(p, 2.0, "top")
+    b = np.stack([n, n + [1.0, 1.0, 0.0]]).astype(np.float32)
+    out = normalize_batch(b, fixed_scale=True, keep_z=True)
+    np.testing.assert_allclose(out[:, :, 2], b[:, :, 2])  # heights untouched
+    np.testing.assert_allclose(out[:, :, :2].mean(axis=1), 0.0, atol=1e-6)
+    cfg = AugmentConfig(yaw=True, jitter_sigma=0.0, dropout_max=0.0, scale=(1.0, 1.0), z_shift=(0.1, 0.2))
+    aug = augment_batch(b, np.random.default_rng(0), cfg, fixed_scale=True, keep_z=True)
+    dz = (b[:, :, 2] - aug[:, :, 2])  # the seabed taken deeper: every point higher by one draw per cloud
+    assert np.all((dz > 0.1 - 1e-6) & (dz < 0.2 + 1e-6)) and np.allclose(dz, dz[:, :1])
+
+
+def test_classifier_seabed_depth(tmp_path: Path) -> None:
+    net = PointNet(PointNetConfig(num_classes=3, width=0.125)).eval()
+    path = save_checkpoint(tmp_path / "m.pt", net, ("a", "b", "c"), 64, {"scale_m": 1.5, "z_ref": "seabed"}, {}, {})
+    clf = Classifier.load(path, device=torch.device("cpu"))
+    assert clf.needs_seabed
+    pts = np.random.default_rng(0).normal(size=(100, 3)) * 0.3 + [50.0, 20.0, 19.0]
+    x = clf.prepare(pts, 20.0)
+    assert x[:, 2].mean() == pytest.approx(-1.0 / 1.5, abs=0.05)  # 1 m above the seabed, in 1.5 m units
+    # unknown (None or NaN): the cloud's deepest point stands in for the seabed
+    np.testing.assert_allclose(clf.prepare(pts, None), clf.prepare(pts, float(pts[:, 2].max())))
+    np.testing.assert_allclose(clf.prepare(pts, float("nan")), clf.prepare(pts, None))
+    assert clf.classify(pts, 20.0) == clf.classify_many([pts], [20.0])[0]
+    with pytest.raises(InvalidCloudError, match="seabed depths"):
+        clf.probabilities([pts, pts], seabed_depths=[20.0])

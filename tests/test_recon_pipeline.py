@@ -100,3 +100,17 @@ def test_sloped_seabed(heading: float) -> None:
     objs = rc.finish()
     _check(objs, truth)
     assert rc.seabed_points.shape[0] > 1000
+
+
+def test_seabed_depth_under_objects(flat: tuple) -> None:
+    """The seabed recon fits under each object (what the classifier measures heights from)."""
+    scene, traj, t, images, _ = flat
+    rc = Reconstructor(G, traj)
+    rc.add_frames(t, images)
+    objs = rc.finish()
+    depth = rc.seabed_depth_at([o.centroid[:2] for o in objs])
+    true = scene.seabed_depth(np.array([o.centroid[:2] for o in objs]))
+    assert depth.shape == (len(objs),) and np.all(np.abs(depth - true) < 0.15)
+    far = rc.seabed_depth_at([[500.0, 500.0]])  # no seabed points there
+    assert np.isnan(far).all()
+    assert rc.seabed_depth_at(np.zeros((0, 2))).shape == (0,)

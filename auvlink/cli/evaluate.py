@@ -8,6 +8,10 @@ confusion matrix, look-alike pair confusions) and ``DIR/confusion.png``.
 ``--recon``: evaluate instead on clouds that recon reconstructs from simulated passes over single
 objects (:mod:`classify.recon_eval`: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets per
 class, seed 11; with ``--quick`` 3 headings x 1 tilt x 2 altitudes), cached under ``--cache``.
+
+``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
+simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
+and write ``DIR/baseline2d.json`` and ``DIR/baseline2d_confusion.png`` beside the PointNet figures.
 """
 
 from __future__ import annotations
@@ -15,6 +19,10 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from classify.evaluate import EvalReport
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -27,6 +35,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="a thinner held-out set (every 3rd heading, 2 tilts, 1 draw)")
     p.add_argument("--recon", action="store_true",
                    help="evaluate on clouds recon reconstructs from simulated passes (not synthesized clouds)")
+    p.add_argument("--baseline2d", action="store_true",
+                   help="also train and evaluate the single-image 2D CNN baseline (a few minutes)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,4 +68,27 @@ def run(args: argparse.Namespace) -> int:
     png = plot_confusion(report, args.out / "confusion.png", title=title)
     print(report.text())
     print(f"written: {args.out / 'eval.json'}, {png}")
+    if args.baseline2d:
+        _baseline(args, clf.class_names, cache, report)
     return 0
+
+
+def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Path | None, pointnet: EvalReport) -> None:
+    from auvlink.jsonutil import to_jsonable
+    from classify.baseline2d import CNNConfig
+    from classify.baseline_eval import run_baseline2d
+    from classify.baseline_images import ImageSettings
+    from classify.evaluate import plot_confusion
+
+    out = run_baseline2d(class_names, ImageSettings(), CNNConfig(), cache, progress=True)
+    rep = out.report
+    result = {"source": "single simulated sonar images (held-out headings, tilts, altitudes)", "n_train": out.n_train,
+              "render_seconds": out.render_seconds, "train_seconds": out.result.seconds, **rep.to_dict()}
+    (args.out / "baseline2d.json").write_text(json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
+    png = plot_confusion(rep, args.out / "baseline2d_confusion.png", title=f"2D CNN, single images (n={rep.n})")
+    print("\n2D baseline (one sonar image per object):")
+    print(rep.text())
+    pn = pointnet.macro()
+    print(f"PointNet above: macro precision {pn['precision']:.3f}, recall {pn['recall']:.3f}; 2D baseline: "
+          f"{rep.macro()['precision']:.3f}, {rep.macro()['recall']:.3f}")
+    print(f"written: {args.out / 'baseline2d.json'}, {png}")

@@ -226,7 +226,9 @@ class Engine:
         if self._classify:
             self.load_classifier()
             assert self._classifier is not None
-            labels = self._classifier.classify_many([o.points for o in objects])
+            depths = self.rec.seabed_depth_at([o.centroid[:2] for o in objects]) if self.rec is not None else None
+            labels = self._classifier.classify_many([o.points for o in objects],
+                                                    None if depths is None else [float(d) for d in depths])
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
         for o, (c, s) in zip(objects, labels, strict=True):
