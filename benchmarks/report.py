@@ -117,6 +117,8 @@ def tradeoff_plot(stage: str, knob: str, rows: Sequence[dict[str, Any]], plots: 
     positive_t = all(p[0] > 0 for p in pts)
     if positive_t and max(p[0] for p in pts) / min(p[0] for p in pts) > 30:
         ax.set_xscale("log")
+    else:  # small times (us per frame) as 2e-05, not as overlapping 0.00002 labels
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4))
     positive_e = all(p[1] > 0 for p in pts)
     if positive_e and max(p[1] for p in pts) / min(p[1] for p in pts) > 30:
         ax.set_yscale("log")
