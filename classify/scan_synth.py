@@ -91,15 +91,21 @@ def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], thre
     into its range bin. A grazing hit on a rounded top, alone in its bin, stays below the threshold;
     a face that many rays strike at nearly one range passes.
     """
-    k = t_hit.shape[1]
-    t = np.where(hit, t_hit, np.inf)
-    e = np.where(hit, cos_a**2 * (r0 / np.where(hit, t_hit, r0)) ** 2 / k, 0.0)
-    b = np.where(hit, np.floor(t / bin_m), -10.0)  # (P, K, beams)
-    diff = b[:, None, :, :] - b[:, :, None, :]  # [p, i, j, beam] = b_j - b_i
-    ok = hit.copy()
+    p_n, k, n_beams = t_hit.shape
+    out = np.full((p_n, n_beams), np.inf)
+    pi, bi = np.nonzero(hit.any(axis=1))  # only the (position, beam) cells a ray of the object reaches
+    if pi.size == 0:
+        return out
+    h = hit[pi, :, bi]  # (C, K)
+    t = np.where(h, t_hit[pi, :, bi], r0)
+    e = np.where(h, cos_a[pi, :, bi] ** 2 * (r0 / t) ** 2 / k, 0.0)
+    b = np.where(h, np.floor(t / bin_m), -10.0)
+    diff = b[:, None, :] - b[:, :, None]  # [c, i, j] = b_j - b_i
+    ok = h.copy()
     for d in range(max(1, min_run)):  # bins b_i .. b_i + min_run - 1 each hold enough energy
-        ok &= (np.where(diff == d, e[:, None, :, :], 0.0).sum(axis=2) >= threshold)
-    return np.asarray(np.where(ok, b * bin_m + 0.5 * bin_m, np.inf).min(axis=1), dtype=np.float64)
+        ok &= (np.where(diff == d, e[:, None, :], 0.0).sum(axis=2) >= threshold)
+    out[pi, bi] = np.where(ok, b * bin_m + 0.5 * bin_m, np.inf).min(axis=1)
+    return out
 
 
 def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, settings: SynthesisSettings,
