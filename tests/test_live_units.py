@@ -20,15 +20,40 @@ from auvlink.transports.base import Transport
 
 def test_a_full_sonar_queue_drops_whole_frames_and_counts_them(tmp_path: Path) -> None:
     live = LiveRun(vehicle_config(tmp_path), tmp_path / "out", sonar_queue=2)
-    frames = [Sample("sonar", "didson", 1000 + i, b"", None) for i in range(5)]
+    frames = [Sample("sonar", "didson", 1000 + min(i, 1), b"", None) for i in range(5)]  # 4 read together
     for s in frames:
         live._deliver(s)
     for i in range(50):  # navigation samples have their own, large queue
         live._deliver(Sample("gyro", "dsp1760", 2000 + i, b"", None))
     assert live.sonar_q.qsize() == 2 and live.nav_q.qsize() == 50
     assert live.drops == {"sonar": 3}
-    assert [e["frame_t_ns"] for e in live.events if e["kind"] == "frame_dropped"] == [1002, 1003, 1004]
+    dropped = [e for e in live.events if e["kind"] == "frame_dropped"]
+    # the frames read together share a receive time: their ordinal in the device's stream tells them apart
+    assert [(e["frame_t_ns"], e["sample_index"]) for e in dropped] == [(1001, 2), (1001, 3), (1001, 4)]
     assert [live.sonar_q.get_nowait().t_host_ns for _ in range(2)] == [1000, 1001]  # the oldest kept, whole
+
+
+def test_replay_skips_exactly_the_frames_live_dropped_among_frames_read_together(tmp_path: Path) -> None:
+    from auvlink.codecs import dsp1760
+    from auvlink.config import load_config
+    from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC
+    from auvlink.pipeline.process import run_log
+    from logs_format.writer import MissionLogWriter
+
+    log = tmp_path / "burst.mcap"
+    t0 = 1_000_000_000
+    with MissionLogWriter(log) as w:
+        w.add_vehicle_config(load_config(vehicle_config(tmp_path)))
+        for i in range(6):  # 6 gyro frames, the last 4 received in one read (one time)
+            raw = dsp1760.encode(dsp1760.build((0.0, 0.0, 0.01), (0.0, 0.0, 9.8), sequence=i))
+            w("gyro", "dsp1760", t0 + min(i, 2) * 1000, raw)
+        for k in (3, 5):  # live dropped the 4th and the 6th: same receive time as the 3rd and 5th it kept
+            w.add_json(EVENT_TOPIC, EVENT_SCHEMA_NAME, EVENT_SCHEMA, t0 + 5000,
+                       {"t_ns": t0 + 5000, "device": "gyro", "kind": "frame_dropped", "frame_t_ns": t0 + 2000,
+                        "sample_index": k})
+    result = run_log(log, classify=False, progress=False)
+    assert result.drops == {"gyro": 2}  # not 4: the time alone would skip the kept frames of that read too
+    assert result.recon_stats["nav_samples"]["gyro"] == 4
 
 
 class Flaky(Transport):

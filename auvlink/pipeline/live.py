@@ -59,6 +59,7 @@ class LiveRun:
         self.sonar_q: queue.Queue[Sample] = queue.Queue(maxsize=sonar_queue)
         self.nav_q: queue.Queue[Sample] = queue.Queue(maxsize=100_000)
         self.drops: dict[str, int] = {}
+        self._delivered: dict[str, int] = {}  # samples handed over per device (each device: one reader thread)
         self.events: list[dict[str, Any]] = []
         self.fatal = ""
         self._log: Any = None
@@ -91,13 +92,16 @@ class LiveRun:
             self._fail(exc)
 
     def _deliver(self, sample: Sample) -> None:
+        index = self._delivered.get(sample.device, 0)  # the sample's ordinal in its device's stream
+        self._delivered[sample.device] = index + 1
         q = self.sonar_q if sample.format in SONAR_FORMATS else self.nav_q
         try:
             q.put_nowait(sample)
         except queue.Full:
             self.drops[sample.device] = self.drops.get(sample.device, 0) + 1
+            # frames read together share a receive time; the ordinal says which one (replay counts the same)
             self._event({"t_ns": now_ns(), "device": sample.device, "kind": "frame_dropped",
-                         "frame_t_ns": sample.t_host_ns})
+                         "frame_t_ns": sample.t_host_ns, "sample_index": index})
 
     # ------------------------------------------------------------------ the run
     def run(self) -> MissionResult:

@@ -137,13 +137,17 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     shown = 0.0
     decode_s = 0.0
     skipped: dict[str, int] = {}
+    index: dict[str, int] = {}  # per device: the sample's ordinal, as live counted it
     t_read = time.perf_counter()
     with replay:
         for sample in replay.samples():
             t_ns = sample.t_host_ns
-            if dropped and (sample.device, t_ns) in dropped:  # the live run never processed it
-                skipped[sample.device] = skipped.get(sample.device, 0) + 1
-                continue
+            if dropped:
+                k = index.get(sample.device, 0)
+                index[sample.device] = k + 1
+                if (sample.device, k) in dropped or (sample.device, -1, t_ns) in dropped:  # live never had it
+                    skipped[sample.device] = skipped.get(sample.device, 0) + 1
+                    continue
             engine.feed(sample)
             if last_adv is None:
                 last_adv = t_ns
@@ -169,20 +173,26 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     return result_of(engine, log, timings, stats, loss, mode="replay", drops=skipped)
 
 
-def dropped_live(reader: Any) -> set[tuple[str, int]]:
-    """(device, receive time ns) of the frames a live run dropped (its ``events`` channel)."""
+def dropped_live(reader: Any) -> set[tuple[Any, ...]]:
+    """The frames a live run dropped (its ``events`` channel): ``(device, sample ordinal in that device's
+    stream)``; ``(device, -1, receive time ns)`` for events without the ordinal (logs of earlier versions:
+    frames read together share that time, so these may skip a frame live kept)."""
     import json
 
     if "events" not in reader.channels:
         return set()
-    out = set()
+    out: set[tuple[Any, ...]] = set()
     for msg in reader.messages(channels=["events"]):
         try:
             ev = json.loads(msg.data)
         except ValueError:
             continue
-        if ev.get("kind") == "frame_dropped" and "frame_t_ns" in ev:
-            out.add((str(ev["device"]), int(ev["frame_t_ns"])))
+        if ev.get("kind") != "frame_dropped":
+            continue
+        if "sample_index" in ev:
+            out.add((str(ev["device"]), int(ev["sample_index"])))
+        elif "frame_t_ns" in ev:
+            out.add((str(ev["device"]), -1, int(ev["frame_t_ns"])))
     return out
 
 
