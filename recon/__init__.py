@@ -4,9 +4,10 @@ Pure computation on numpy arrays and small frozen dataclasses (no ports, no file
 :mod:`recon.ply`). Modules: :mod:`recon.frames` (attitudes, mountings, RDI frames), :mod:`recon.nav`
 (dead reckoning) and :mod:`recon.trajectory` (pose interpolation), :mod:`recon.sonar_geometry`,
 :mod:`recon.highlight` and :mod:`recon.front_slope` (highlight-extension points), :mod:`recon.seabed`,
-:mod:`recon.cluster` (with :mod:`recon.cluster_index`), :mod:`recon.pipeline` (:class:`Reconstructor`),
-:mod:`recon.ply`, :mod:`recon.synthetic` (frames from analytic shapes, for tests and benchmarks) and
-:mod:`recon.simeval` (recon against the simulator's ground truth; imports ``auvlink.sim`` lazily).
+:mod:`recon.cluster` (with :mod:`recon.cluster_index`), :mod:`recon.far_side` (centroids: the hidden far side),
+:mod:`recon.pipeline` (:class:`Reconstructor`), :mod:`recon.ply`, :mod:`recon.synthetic` (frames from analytic
+shapes, for tests and benchmarks) and :mod:`recon.simeval` (recon against the simulator's ground truth;
+imports ``auvlink.sim`` lazily).
 """
 
 from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster

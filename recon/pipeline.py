@@ -8,13 +8,13 @@ every ``seabed_every``-th frame, the seabed returns at the onset. Points wait in
 with the range arc they came from; :meth:`poll` (streaming) or :meth:`finish` (batch) removes the
 seabed (:mod:`recon.seabed`, fitted from the DVL seabed points and the sonar seabed returns),
 clusters (:mod:`recon.cluster`) and, with ``front_slope`` (method ``arc``), moves each final
-object's front-slope points up their arcs (:mod:`recon.front_slope`). Pure computation: no ports,
-no files.
+object's front-slope points up their arcs (:mod:`recon.front_slope`) and its centroid away from the
+sonar by the far side it could not see (:mod:`recon.far_side`). Pure computation: no ports, no files.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal, Protocol
 
 import numpy as np
@@ -23,16 +23,10 @@ from scipy.spatial.transform import Rotation
 
 from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster, make_object
 from recon.errors import GeometryError, ReconError
+from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude
 from recon.front_slope import arc_columns, carve_keep, replace_on_arcs
-from recon.highlight import (
-    HighlightConfig,
-    first_returns,
-    frame_thresholds,
-    onset_rows,
-    project,
-    returns_between,
-)
+from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project, returns_between
 from recon.seabed import SeabedConfig, SeabedModel, object_mask
 from recon.sonar_geometry import SonarGeometry
 
@@ -57,6 +51,7 @@ class ReconConfig:
     front_slope_baseline: tuple[float, float] = (0.2, 3.0)  # m: distance of the witness frames
     front_slope_window: int = 64  # frames kept as witnesses
     front_slope_tol_bins: float = 1.5  # range tolerance of the carving test
+    far_side: FarSideConfig = field(default_factory=FarSideConfig)  # arc method: centroid (recon.far_side)
     seabed_every: int = 5  # sonar seabed returns from every n-th frame (0 = none)
     seabed_band_m: float = 1.0  # search the seabed return this far beyond the onset margin
     remove_seabed: bool = True
@@ -269,12 +264,15 @@ class Reconstructor:
         return p[keep], t[keep], e[keep]
 
     def _finalize(self, objects: list[DetectedObject]) -> list[DetectedObject]:
-        """Front-slope correction (arc method) of final objects: points, centroid and extent."""
+        """Front-slope correction (arc method) of final objects: points, extent, centroid (+ hidden far side)."""
         if not self._arc:
             return objects
-        c = self.config
-        return [make_object(o.id, replace_on_arcs(o.points, o.extra, self.geometry.spread, c.front_slope_length,
-                                                  c.front_slope_width), o.times, o.extra) for o in objects]
+        c, out = self.config, []
+        for o in objects:
+            f = make_object(o.id, replace_on_arcs(o.points, o.extra, self.geometry.spread, c.front_slope_length,
+                                                  c.front_slope_width), o.times, o.extra)
+            out.append(replace(f, centroid=far_side_centre(f.centroid, f.points, f.extra, c.far_side)))
+        return out
 
     def poll(self, vehicle_position: ArrayLike, t_now: float | None = None) -> list[DetectedObject]:
         """Streaming: objects the vehicle is past, final from now on (classify them now)."""
