@@ -182,7 +182,8 @@ class LiveRun:
     def _loop(self, engine: Engine, readers: list[PortReader]) -> None:
         end = None if self.duration is None else time.monotonic() + self.duration
         while not self.stop.is_set() and (end is None or time.monotonic() < end):
-            watermark = min(r.watermark_ns for r in readers) if readers else now_ns()
+            now = now_ns()  # read before the readers' state: see PortReader.holds_from
+            watermark = min(r.holds_from(now) for r in readers) if readers else now
             n = self._drain(engine)
             engine.advance(watermark)
             if n == 0:

@@ -6,10 +6,11 @@ publishes a *watermark*, the host time before which every sample of this device 
 over (samples are stamped after the read returns), so a consumer knows when the devices together
 are complete up to a time. A port that fails (closed, unplugged, the peer gone) is closed, reported
 through ``on_event`` (``port_lost``), and reopened after 0.2, 0.4, 0.8 ... up to ``backoff_max`` s
-(``port_reopened`` with the gap's length); the watermark keeps advancing meanwhile, so the others
-are not held up. A port that stays open but silent for ``silence_s`` (a stalled socket, a sensor
-that stopped talking) gives ``port_silent``, and ``port_resumed`` when bytes come again. Errors are
-never printed: they are events.
+(``port_reopened`` with the gap's length). A reader whose port is closed (waiting to reopen it, or
+inside a slow ``open``) has nothing in hand, so it holds nobody up meanwhile:
+:meth:`PortReader.holds_from` gives the consumer's own clock reading then. A port that stays open
+but silent for ``silence_s`` (a stalled socket, a sensor that stopped talking) gives ``port_silent``,
+and ``port_resumed`` when bytes come again. Errors are never printed: they are events.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ class PortReader:
         self.backoff_max = backoff_max
         self.watermark_ns = now_ns()
         self.is_open = opened
+        self._idle = not opened  # port closed: nothing in hand, no sample before its next open returns
         self.reopens = 0
         self.failures = 0
         self.gaps: list[tuple[int, int]] = []  # (lost at, reopened at) host ns
@@ -89,6 +91,8 @@ class PortReader:
                         self.stop.wait(delay)
                         delay = min(2.0 * delay, self.backoff_max)
                         continue
+                    self.watermark_ns = now_ns()  # before leaving idle: samples come after this
+                    self._idle = False
                     self.is_open = True
                     delay = self.backoff_initial
                     last_data, silent = now_ns(), False
@@ -127,7 +131,16 @@ class PortReader:
             self._close()
             self.watermark_ns = 2**63 - 1  # a stopped reader holds nobody up
 
+    def holds_from(self, now: int) -> int:
+        """The time before which this device has handed everything over, for a consumer who read the clock
+        (``now``, ns) just before asking. While the port is closed (backoff, a slow open) nothing is in
+        hand and the next sample is stamped after the open returns, so ``now`` is safe; otherwise the
+        watermark published before the current read."""
+        wm = self.watermark_ns
+        return max(wm, now) if self._idle else wm
+
     def _close(self) -> None:
+        self._idle = True  # (the failed read delivered nothing; the samples before it are handed over)
         if self.is_open:
             self.is_open = False
             try:
