@@ -47,7 +47,7 @@ def survey_map(result: MissionResult) -> bytes:
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal")
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)  # beside the map: it hides nothing
     ax.set_title("Survey map")
     return _png(fig)
 
