@@ -152,9 +152,7 @@ def _error(clf: Classifier, clouds: list[Any], n: int | None = None) -> float:
     pts = [c.points if n is None else c.points[rng.choice(len(c.points), n, replace=len(c.points) < n)]
            for c in got]
     if n is not None:
-        pts = [normalize_cloud(p, clf.scale_m, clf.z_ref if clf.scale_m > 0 else "mean",
-                               c.seabed_depth if np.isfinite(c.seabed_depth) else float(p[:, 2].max())
-                               ).astype(np.float32) for p, c in zip(pts, got, strict=True)]
+        pts = [clf.normalize(p, c.seabed_depth) for p, c in zip(pts, got, strict=True)]
         x = np.stack(pts)
         with torch.inference_mode():
             pred = clf.model(torch.from_numpy(x))[0].argmax(dim=1).numpy()

@@ -46,6 +46,13 @@ def check_cloud(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
     return p
 
 
+def _seabed_or_deepest(points: npt.NDArray[np.float64], seabed_depth: float | None) -> float:
+    """``seabed_depth`` when known (finite), else the cloud's deepest point (NED z max)."""
+    if seabed_depth is None or not np.isfinite(seabed_depth):
+        return float(points[:, 2].max())
+    return float(seabed_depth)
+
+
 class Classifier:
     """A trained PointNet ready for inference (CPU by default, CUDA when present)."""
 
@@ -73,14 +80,17 @@ class Classifier:
         """Checked, subsampled, normalized cloud ``(min(n, n_points), 3)`` float32 (unit sphere, or centred
         and divided by the checkpoint's ``scale_m`` metres; z from ``seabed_depth`` for a seabed model)."""
         p = check_cloud(points)
-        if seabed_depth is not None and not np.isfinite(seabed_depth):
-            seabed_depth = None
-        seabed = float(p[:, 2].max()) if seabed_depth is None else float(seabed_depth)
+        seabed = _seabed_or_deepest(p, seabed_depth)  # from the whole cloud, before subsampling
         if len(p) > self.n_points:
             idx = np.random.default_rng(0).choice(len(p), self.n_points, replace=False)
             p = p[np.sort(idx)]
-        return normalize_cloud(p, self.scale_m, self.z_ref if self.scale_m > 0 else "mean",
-                               seabed).astype(np.float32)
+        return self.normalize(p, seabed)
+
+    def normalize(self, points: npt.NDArray[np.float64], seabed_depth: float | None = None) -> npt.NDArray[np.float32]:
+        """The checkpoint's normalization of a checked cloud, as is (no subsampling); ``seabed_depth`` None or
+        NaN: the cloud's deepest point."""
+        return normalize_cloud(points, self.scale_m, self.z_ref if self.scale_m > 0 else "mean",
+                               _seabed_or_deepest(points, seabed_depth)).astype(np.float32)
 
     def probabilities(self, clouds: Sequence[npt.ArrayLike], batch_size: int = 8,
                       seabed_depths: Sequence[float | None] | None = None) -> npt.NDArray[np.float32]:
