@@ -176,12 +176,11 @@ class Reconstructor:
         if n_sb < self.config.seabed.min_points:
             return None
         pad = self.config.onset_radius
-        sb = self.seabed_points
-        near = np.all((sb[:, :2] >= lo - pad) & (sb[:, :2] <= hi + pad), axis=1)
-        if near.sum() < self.config.seabed.min_points:
+        near = self._seabed_within(lo - pad, hi + pad)
+        if near is None:
             return None
         try:
-            model = SeabedModel.fit(sb[near], self.config.seabed)
+            model = SeabedModel.fit(near, self.config.seabed)
         except ReconError:
             return None
         ahead = 12.0  # m: where the fan meets the seabed, ahead of the vehicle, must stay inside the fit
@@ -227,18 +226,24 @@ class Reconstructor:
         seabed points within ``radius`` m (DVL and sonar seabed returns); NaN where there are too few."""
         q = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         out = np.full(q.shape[0], np.nan)
-        sb = self.seabed_points
-        if q.shape[0] == 0 or sb.shape[0] < self.config.seabed.min_points:
+        if q.shape[0] == 0 or self._n_seabed < self.config.seabed.min_points:
             return out
+        sb = self.seabed_points
         for i, c in enumerate(q):  # one small fit per object (a handful per poll)
-            near = np.all(np.abs(sb[:, :2] - c) <= radius, axis=1)
-            if near.sum() < self.config.seabed.min_points:
+            near = self._seabed_within(c - radius, c + radius, sb)
+            if near is None:
                 continue
             try:
-                out[i] = float(SeabedModel.fit(sb[near], self.config.seabed).depth_at(c[None])[0])
+                out[i] = float(SeabedModel.fit(near, self.config.seabed).depth_at(c[None])[0])
             except ReconError:
                 continue
         return out
+
+    def _seabed_within(self, lo: F64, hi: F64, sb: F64 | None = None) -> F64 | None:
+        """Seabed points (of ``sb``, default all) with ``lo <= (N, E) <= hi``; None when fewer than a fit needs."""
+        sb = self.seabed_points if sb is None else sb
+        near = sb[np.all((sb[:, :2] >= lo) & (sb[:, :2] <= hi), axis=1)]
+        return near if near.shape[0] >= self.config.seabed.min_points else None
 
     @property
     def _arc(self) -> bool:
@@ -253,13 +258,11 @@ class Reconstructor:
         self._pending = []
         if not self.config.remove_seabed or not self._seabed:
             return p, t, e
-        sb = self.seabed_points
         pad = self.config.seabed.tile * 2.0
-        lo, hi = p[:, :2].min(axis=0) - pad, p[:, :2].max(axis=0) + pad
-        near = np.all((sb[:, :2] >= lo) & (sb[:, :2] <= hi), axis=1)
-        if near.sum() < self.config.seabed.min_points:
+        near = self._seabed_within(p[:, :2].min(axis=0) - pad, p[:, :2].max(axis=0) + pad)
+        if near is None:
             return p, t, e
-        keep = object_mask(p, SeabedModel.fit(sb[near], self.config.seabed), self.config.seabed)
+        keep = object_mask(p, SeabedModel.fit(near, self.config.seabed), self.config.seabed)
         self.seabed_removed += int((~keep).sum())
         return p[keep], t[keep], e[keep]
 
