@@ -47,7 +47,14 @@ def test_half_seen_disc_moves_by_the_capped_hidden_depth_along_the_look(heading:
     mean_look = arcs[:, 3:5].mean(axis=0)
     assert abs(move[0] * mean_look[1] - move[1] * mean_look[0]) < 1e-12  # along the mean look only
     assert abs(move[0] * look[1] - move[1] * look[0]) < 0.01
-    assert 0.19 < float(move[:2] @ look) <= 0.2 + 1e-12  # W - L = 1.0 - 0.5 m, capped at 0.2 m
+    # W - L (2-98 % extents across and along the look; about 1.0 - 0.5 m for a half disc, less for some draws:
+    # seed 93 gives 0.365 m), halved, capped at 0.2 m, times the mean look's length
+    rel = pts[:, :2] - before[:2]
+    width = np.ptp(np.percentile(rel @ [-look[1], look[0]], [2.0, 98.0]))
+    depth = np.ptp(np.percentile(rel @ look, [2.0, 98.0]))
+    expected = 0.5 * min(width - depth, 0.4) * float(np.linalg.norm(mean_look))
+    assert abs(float(move[:2] @ look) - expected) < 0.01
+    assert 0.15 < float(move[:2] @ look) <= 0.2 + 1e-12
     uncapped = far_side_centre(before, pts, arcs, FarSideConfig(cap=1.0))
     assert float(move[:2] @ look) - 1e-12 <= float((uncapped - before)[:2] @ look) < 0.3  # (W - L) / 2: 0.2-0.25 m
 
