@@ -28,7 +28,7 @@ from typing import Any
 from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import to_jsonable
 
-STAGES = ("decode", "log", "sim", "recon", "classify", "e2e", "stability")
+STAGES = ("decode", "log", "sim", "recon", "classify", "e2e", "stability", "survey")
 
 
 def benchmarks_dir() -> Path:
