@@ -52,12 +52,15 @@ class Detection:
     t_first: float
     t_last: float
     points: np.ndarray
+    passes: tuple[tuple[float, float], ...] = ()  # time spans (s since the epoch) of the passes that saw it
+    seabed_depth: float | None = None  # m, NED: the seabed under it (recon's model)
 
     def to_json(self, cloud: str) -> dict[str, Any]:
         return {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
                 "position_ned": [round(v, 4) for v in self.position_ned],
                 "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
-                "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud}
+                "t_first": self.t_first, "t_last": self.t_last, "passes": [list(p) for p in self.passes],
+                "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, 4), "cloud": cloud}
 
 
 @dataclass(frozen=True)
