@@ -28,7 +28,7 @@ import queue
 import threading
 import time
 from dataclasses import dataclass, field, replace
-from typing import IO, Any
+from typing import IO, Any, Literal, cast
 
 from auvlink.config import DeviceConfig, VehicleConfig
 from auvlink.sim.emit import Event, block_events
@@ -84,7 +84,11 @@ def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[S
         m = devices["dvl"].mounting
         s = replace(s, dvl_lever_arm=m.xyz, dvl_rpy_deg=m.rpy_deg)
     if "pressure" in devices:
-        s = replace(s, pressure=devices["pressure"].format, pressure_lever_arm=devices["pressure"].mounting.xyz)
+        kind = devices["pressure"].format
+        if kind != "paro" and kind != "keller":
+            raise SimError(f"device {devices['pressure'].name!r}: no simulated pressure sensor speaks {kind!r}")
+        s = replace(s, pressure=cast(Literal["paro", "keller"], kind),
+                    pressure_lever_arm=devices["pressure"].mounting.xyz)
     sonar = scene.sonar
     if "sonar" in devices:
         sonar = replace(sonar, lever_arm=devices["sonar"].mounting.xyz)
