@@ -156,6 +156,8 @@ def _bounds(info: Any) -> str:
 
 _KIND = {"float": "a finite number", "int": "an integer", "string": "a string", "bool": "true or false",
          "finite": "a finite number"}
+_FIX = {"float": "write a plain number, e.g. 1.0", "finite": "write a plain number, e.g. 1.0",
+        "int": "write a whole number, e.g. 4", "string": "quote it", "bool": "write true or false"}
 
 
 def config_error(root: Any, exc: ValidationError, prefix: str = "") -> ConfigError:
@@ -170,6 +172,11 @@ def config_error(root: Any, exc: ValidationError, prefix: str = "") -> ConfigErr
     if kind in ("extra_forbidden", "unexpected_keyword_argument"):
         allowed = sorted(_fields(parent) or {})
         return ConfigError(key, "unknown key", f"allowed here: {', '.join(allowed)}")
+    if kind == "missing" and err["loc"] and isinstance(err["loc"][-1], int):  # a vector too short
+        n = len(typing.get_args(_strip(getattr(info, "annotation", None)))) or err["loc"][-1] + 1
+        return ConfigError(key, f"expected a list of {n} numbers, got {value!r}", f"write [{', '.join(['0.0'] * n)}]")
+    if kind.startswith(("datetime", "date_")):
+        return ConfigError(key, f"not an ISO 8601 time: {value!r}", 'write "2026-01-01T00:00:00Z"')
     if kind == "missing" or kind == "missing_argument":
         return ConfigError(key, "missing", f"add `{name} = ...`")
     if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
@@ -190,7 +197,7 @@ def config_error(root: Any, exc: ValidationError, prefix: str = "") -> ConfigErr
     base = kind.split("_")[0]
     if base in _KIND or kind == "finite_number":
         return ConfigError(key, f"expected {_KIND.get(base, 'a finite number')}, got {value!r}",
-                           "write e.g. 1.0" if base in ("float", "finite") else "fix the value")
+                           _FIX.get(base, "fix the value"))
     return ConfigError(key, err["msg"].removeprefix("Value error, "), "")
 
 

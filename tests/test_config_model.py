@@ -207,3 +207,38 @@ def test_replay_cli_takes_config(logs: tuple[Path, Path, VehicleConfig], tmp_pat
                "--no-report", "--quiet"])
     assert rc == 0 and "warning" not in capsys.readouterr().err
     assert (tmp_path / "out" / "detections.jsonl").is_file()
+
+
+# -- sizes across the scene and its settings; one Mounting kept whole ------------------------------
+def test_samples_per_stream_are_bounded() -> None:
+    from auvlink.sim.scene import loads_scene
+    from auvlink.sim.settings import check_budget
+
+    text = SCENE.replace("lines = 1", "lines = 200").replace("line_length = 14.0", "line_length = 200.0")
+    scene = loads_scene(text)  # 200 x 200 m at 1 m/s: about 11.4 h, within the 12 h limit
+    check_budget(scene, loads_settings(text))
+    e = _err(check_budget, scene, loads_settings(text + "[sensors]\ntruth_hz = 5000.0\n"))
+    assert e.key == "sensors.truth_hz" and "20000000" in e.problem
+
+
+def test_mission_setup_keeps_every_mounting() -> None:
+    from scipy.spatial.transform import Rotation
+
+    from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
+    from recon.frames import RDI_SWAP, attitude
+
+    cfg = loads_config(DEV.replace("\n", "\nmounting = { xyz = [0.4, 0.1, 0.25], rpy_deg = [1.0, 2.0, 45.0] }\n", 1)
+                       + '[[devices]]\nname = "son"\nformat = "didson"\nurl = "tcp://127.0.0.1:5600"\n'
+                       'mounting = { xyz = [1.2, 0.0, 0.1], rpy_deg = [0.0, 0.0, 10.0] }\n'
+                       '[sonar]\ndevice = "son"\ntilt_deg = 25.0\nwindow_start = 2.0\nwindow_length = 8.0\n')
+    setup = MissionSetup.from_config(cfg)
+    assert setup.dvl_mounting.rpy_deg == (1.0, 2.0, 45.0) and setup.sonar.tilt_deg == 25.0
+    nav = nav_config(setup)
+    want = attitude(np.radians(45.0), np.radians(2.0), np.radians(1.0)) * Rotation.from_matrix(RDI_SWAP)
+    assert np.allclose(nav.dvl_mounting.rotation.as_matrix(), want.as_matrix(), atol=1e-12)
+    assert nav.dvl_mounting.lever_arm == (0.4, 0.1, 0.25)
+    g = sonar_geometry(setup)
+    assert g.lever_arm == (1.2, 0.0, 0.1) and (g.window_start, g.window_length) == (2.0, 8.0)
+    boresight = g.directions_body(0.0, np.array([0.0]))[0]  # yawed 10 deg to starboard, tilted 25 deg down
+    assert np.allclose(boresight, [np.cos(np.radians(25)) * np.cos(np.radians(10)),
+                                   np.cos(np.radians(25)) * np.sin(np.radians(10)), np.sin(np.radians(25))])
