@@ -178,10 +178,9 @@ def parse_config(data: Mapping[str, Any], source: str = "<string>", text: str = 
 
     ``check_files`` False skips checks against this machine's files (a log's stored DBC path).
     """
-    if not isinstance(data.get("devices", None), list) or not data["devices"]:
-        if "devices" not in data or data["devices"] == []:
-            raise ConfigError("devices", "at least one [[devices]] block is needed",
-                              "add [[devices]] with name, format and url")
+    if data.get("devices") is None or data.get("devices") == []:
+        raise ConfigError("devices", "at least one [[devices]] block is needed",
+                          "add [[devices]] with name, format and url")
     doc = validate(VehicleFile, data)
     _check_devices(doc.devices)
     if doc.sonar is not None and doc.sonar.device is not None and doc.sonar.device not in {

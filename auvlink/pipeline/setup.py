@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -46,7 +45,6 @@ class MissionSetup:
     site: Site | None = None
     truth: tuple[TruthObject, ...] = ()
     warning: str = ""  # why the log's stored vehicle configuration was not used ("" when it was)
-    extra: dict[str, Any] = field(default_factory=dict)
 
     # the sonar's numbers under the names the pipeline used before they moved into ``sonar``
     @property
@@ -68,21 +66,21 @@ class MissionSetup:
     @classmethod
     def from_config(cls, config: VehicleConfig, truth: tuple[TruthObject, ...] = (), warning: str = "") -> MissionSetup:
         """The setup of a validated vehicle configuration (devices picked by format / the sonar's name)."""
-        kw: dict[str, Any] = {}
-        if config.sonar is not None:
-            kw["sonar"] = config.sonar.geometry()
+        sonar = config.sonar.geometry() if config.sonar is not None else DEFAULT_SONAR
         sonar_dev = (config.sonar.device if config.sonar is not None else None) or "sonar"
-        for dev in config.devices:
+        sonar_m = dvl_m = pressure_m = Mounting()
+        for dev in config.devices:  # a later device of a role wins, as the log's re-parse did
             if dev.name == sonar_dev or dev.format in ("didson", "aris"):
-                kw["sonar_mounting"] = dev.mounting
+                sonar_m = dev.mounting
             elif dev.format == "pd0":
-                kw["dvl_mounting"] = dev.mounting
+                dvl_m = dev.mounting
             elif dev.format in ("paro", "keller"):
-                kw["pressure_mounting"] = dev.mounting
-        return cls(site=config.site, truth=truth, warning=warning, **kw)
+                pressure_m = dev.mounting
+        return cls(sonar=sonar, sonar_mounting=sonar_m, dvl_mounting=dvl_m, pressure_mounting=pressure_m,
+                   site=config.site, truth=truth, warning=warning)
 
     @classmethod
-    def from_metadata(cls, meta: Mapping[str, Any], config: VehicleConfig | None = None) -> MissionSetup:
+    def from_metadata(cls, meta: Mapping[str, object], config: VehicleConfig | None = None) -> MissionSetup:
         """The setup of a mission log: ``config`` when given, else the log's stored configuration.
 
         A stored configuration that fails validation gives the defaults and a one-line :attr:`warning`.
@@ -99,7 +97,7 @@ class MissionSetup:
                                             "using the default sonar and mountings (give --config CONFIG.toml)")
 
 
-def _truth_objects(gt: Any) -> list[TruthObject]:
+def _truth_objects(gt: object) -> list[TruthObject]:
     out: list[TruthObject] = []
     objects = gt.get("objects", []) if isinstance(gt, Mapping) else []
     for obj in objects if isinstance(objects, list) else []:

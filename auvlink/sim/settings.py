@@ -4,8 +4,8 @@ The scene loader (:mod:`auvlink.sim.scene`) leaves both to this module; :func:`s
 them from the same TOML text, validated by the pydantic models :class:`SensorSettings` and
 :class:`NoiseTable` (``docs/schemas/settings.schema.json``). Every key has a default; an unknown key or
 a bad value raises :class:`~auvlink.errors.ConfigError` naming the dotted key and the allowed keys or
-range; :func:`check_budget` bounds the samples a mission's streams may hold. The ``[noise]`` table is documented in
-:mod:`auvlink.sim.noise`.
+range; :func:`check_budget` bounds the samples a mission's streams may hold. The ``[noise]`` table is
+documented in :mod:`auvlink.sim.noise`.
 
 .. code-block:: toml
 
@@ -51,22 +51,24 @@ DEFAULT_START = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
 MAX_SAMPLES = 20_000_000
 
 
-def _rate(hi: float, lo_open: bool = True) -> Any:
-    return Annotated[Number, Field(gt=0.0, le=hi) if lo_open else Field(ge=0.0, le=hi), Field(description="Hz")]
-
-
+Hz = Field(description="Hz")
+Rate100 = Annotated[Number, Field(gt=0.0, le=100.0), Hz]
+Rate1k = Annotated[Number, Field(gt=0.0, le=1000.0), Hz]
+Rate5k = Annotated[Number, Field(gt=0.0, le=5000.0), Hz]
+Rate10k = Annotated[Number, Field(gt=0.0, le=10_000.0), Hz]
+TopicRate = Annotated[Number, Field(ge=0.0, le=1000.0), Field(description="Hz (0: none)")]
 Temperature = Annotated[Number, Field(ge=-5.0, le=100.0, description="degC")]
 
 
 @model(frozen=True, config=CONFIG)
 class SensorSettings:
     pressure: Literal["paro", "keller"] = "paro"
-    dvl_hz: _rate(100.0) = 5.0  # type: ignore[valid-type]
-    gyro_hz: _rate(5000.0) = 100.0  # type: ignore[valid-type]
-    pressure_hz: _rate(1000.0) = 10.0  # type: ignore[valid-type]
-    can_hz: _rate(1000.0) = 10.0  # type: ignore[valid-type]
-    truth_hz: _rate(10000.0) = 50.0  # type: ignore[valid-type]
-    truth_topic_hz: _rate(1000.0, lo_open=False) = 10.0  # type: ignore[valid-type]
+    dvl_hz: Rate100 = 5.0
+    gyro_hz: Rate5k = 100.0
+    pressure_hz: Rate1k = 10.0
+    can_hz: Rate1k = 10.0
+    truth_hz: Rate10k = 50.0
+    truth_topic_hz: TopicRate = 10.0
     dvl_lever_arm: Lever = (0.40, 0.0, 0.25)
     dvl_rpy_deg: Annotated[Vec3, Field(description="DVL mounting roll, pitch, yaw in B, deg")] = (0.0, 0.0, 0.0)
     pressure_lever_arm: Lever = (-0.60, 0.0, 0.0)
