@@ -30,12 +30,15 @@ import time
 from dataclasses import dataclass, field, replace
 from typing import IO, Any, Literal, cast
 
+from pydantic import ValidationError
+
 from auvlink.config import DeviceConfig, VehicleConfig
 from auvlink.sim.emit import Event, block_events
 from auvlink.sim.mission import Run, prepare
 from auvlink.sim.noise import NoiseConfig, SimError
-from auvlink.sim.scene import Scene
+from auvlink.sim.scene import Scene, SonarConfig
 from auvlink.sim.settings import SimSettings, settings_for
+from auvlink.validation import config_error
 
 ROLES = {"pd0": "dvl", "dsp1760": "gyro", "paro": "pressure", "keller": "pressure", "can": "can",
          "didson": "sonar"}
@@ -94,8 +97,11 @@ def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[S
         sonar = replace(sonar, lever_arm=devices["sonar"].mounting.xyz)
     if config.sonar is not None:
         c = config.sonar
-        sonar = replace(sonar, tilt_deg=c.tilt_deg, spread_deg=c.spread_deg, window_start=c.window_start,
-                        window_length=c.window_length)
+        try:  # the simulator renders a narrower range of geometries than a vehicle config may describe
+            sonar = replace(sonar, tilt_deg=c.tilt_deg, spread_deg=c.spread_deg, window_start=c.window_start,
+                            window_length=c.window_length)
+        except ValidationError as exc:
+            raise config_error(SonarConfig, exc, "sonar.") from exc
     return replace(scene, sonar=sonar), replace(settings, sensors=s)
 
 
