@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from auvlink.config import load_config
 from auvlink.errors import AuvlinkError
 
 
@@ -23,10 +24,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-classify", action="store_true", help="stop after clustering")
     p.add_argument("--no-report", action="store_true", help="skip report.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--config", type=Path, default=None,
+                   help="vehicle configuration (TOML) to use instead of the one the log stores")
 
 
 def process(log: Path, out: Path, *, speed: float | None, model: Path | None, classify: bool,
-            report: bool, progress: bool) -> dict[str, object]:
+            report: bool, progress: bool, config: Path | None = None) -> dict[str, object]:
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
     from auvlink.pipeline.report import write_report
@@ -35,7 +38,8 @@ def process(log: Path, out: Path, *, speed: float | None, model: Path | None, cl
         raise AuvlinkError(f"{log}: no such log")
     if speed is not None and speed <= 0:
         raise AuvlinkError(f"--speed must be > 0, got {speed}")
-    result = run_log(log, speed=speed, model=model, classify=classify, progress=progress)
+    vehicle = load_config(config) if config is not None else None
+    result = run_log(log, speed=speed, model=model, classify=classify, progress=progress, config=vehicle)
     summary = write_outputs(result, out)
     if report:
         summary["report"] = str(write_report(result, summary, out))
@@ -67,7 +71,7 @@ def scores_line(summary: dict[str, object]) -> str | None:
 
 def run(args: argparse.Namespace) -> int:
     summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
-                      report=not args.no_report, progress=not args.quiet)
+                      report=not args.no_report, progress=not args.quiet, config=args.config)
     print(f"{summary['detections']} objects -> {args.out / 'detections.jsonl'}")
     line = engine_line(summary)
     if line and not args.quiet:

@@ -112,7 +112,7 @@ class LiveRun:
             self.out_dir.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise AuvlinkError(f"cannot create the output folder {self.out_dir}: {exc.strerror or exc}") from exc
-        setup = MissionSetup.from_metadata({"vehicle_config": {"config": self.config.to_dict()}})
+        setup = MissionSetup.from_config(self.config)
         stream = DetectionStream(self.out_dir)
 
         def on_detection(det: Any) -> None:

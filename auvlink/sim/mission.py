@@ -42,7 +42,7 @@ from auvlink.sim.emit import Event, block_events, device_formats
 from auvlink.sim.noise import NoiseConfig, SimError
 from auvlink.sim.scene import Scene
 from auvlink.sim.sensors import Measurements, measure, sample_times
-from auvlink.sim.settings import SimSettings, settings_for
+from auvlink.sim.settings import SimSettings, check_budget, settings_for
 from auvlink.sim.trajectory import LawnmowerTrajectory, TruePose
 from auvlink.sim.truth import POSE_TOPIC, ground_truth, vehicle_config
 
@@ -96,6 +96,7 @@ def prepare(scene: Scene, seed: int | None = None, duration: float | None = None
                            (NoiseConfig() if noise else NoiseConfig.off()))
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         raise SimError(f"the duration must be a positive number of seconds, got {duration}")
+    check_budget(scene, settings)
     traj = LawnmowerTrajectory.from_scene(scene)
     return Run(scene, settings, traj, measure(scene, settings, duration, traj))
 
