@@ -19,7 +19,7 @@ planes plus the bilinear interpolation of the cell residuals.
 
 The seabed noise (:attr:`TexturedSeabed.sigma`) is measured too: the RMS spread of the samples inside
 the seabed cells about their cell mean (sonar range quantization, speckle, texture finer than a cell).
-Object points are those at least ``max(min_height, min(max_min_height, k_sigma * sigma))`` above the
+Object points are those at least ``max(min_height, k_sigma * sigma)`` above the
 model (:meth:`TexturedSeabed.min_height`); the noise is measured only on ``min_sigma_cells`` seabed cells or
 more (the first seconds of a line hold few, and an object among them would set it).
 """
@@ -46,7 +46,6 @@ class TextureConfig:
     sigma_floor: float = 0.02  # m: floor of that sigma (a smooth seabed)
     min_count: int = 2  # samples for a cell to count
     k_sigma: float = 3.0  # object points: at least k_sigma * the measured seabed noise above the model
-    max_min_height: float = 0.2  # m: that threshold at most (two thirds of the lowest object, a 0.3 m half pipe)
     min_sigma_cells: int = 25  # seabed cells (3+ samples) needed to measure the noise; fewer: the floor alone
     max_cells: int = 400_000  # a box larger than this many cells is fitted at a coarser cell
 
@@ -151,7 +150,7 @@ class TexturedSeabed:
 
     def min_height(self, floor: float) -> float:
         """Height (m) above the model from which a point counts as an object point."""
-        return max(floor, min(self.config.max_min_height, self.config.k_sigma * self.sigma))
+        return max(floor, self.config.k_sigma * self.sigma)
 
 
 def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: ArrayLike,
