@@ -19,6 +19,7 @@ from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster, make_object
@@ -64,6 +65,7 @@ class ReconConfig:
     texture_beam_step: int = 2  # seabed returns of every frame from every n-th beam feed the texture grid
     max_object_extent: float = 4.5  # m: a cluster wider than any catalogue object (3 m) + navigation blur
     min_object_height: float = 0.15  # m: an object's top (95th percentile) stands at least this high
+    flank_radius: float = 0.5  # m: points above the planes this near a point of an object's top are kept
 
 
 class Reconstructor:
@@ -85,7 +87,7 @@ class Reconstructor:
         self._onset_cache: tuple[F64, F64, int, SeabedModel] | None = None
         self._onset_fit_frame = 0
         self._stream: StreamingClusterer | None = None
-        self._cells = SeabedCells(self.config.texture.cell)
+        self._cells = SeabedCells(self.config.texture.cell)  # filled only with the texture grid on
         self.seabed: TexturedSeabed | SeabedModel | None = None  # the model of the latest poll
         self.rejected: dict[str, int] = {"too_wide": 0, "too_low": 0}
         self.objects: list[DetectedObject] = []
@@ -105,7 +107,8 @@ class Reconstructor:
         if p.shape[0]:
             self._seabed.append(p)
             self._n_seabed += p.shape[0]
-            self._cells.add(p)
+            if self.config.texture.enabled:
+                self._cells.add(p)
 
     def add_frame(self, t: float, image: NDArray[np.uint8]) -> int:
         """One frame; returns the number of highlight-extension points it gave."""
@@ -283,7 +286,7 @@ class Reconstructor:
             return None
         if not self.config.texture.enabled:
             return coarse
-        m = self.config.texture.window_m + self.config.texture.cell  # the neighbourhood of the edge cells
+        m = max(self.config.texture.context_m, self.config.texture.window_m + self.config.texture.cell)
         return fit_textured(self._cells, coarse, lo - m, hi + m, self.config.texture)
 
     def _min_height(self, model: TexturedSeabed | SeabedModel) -> float:
@@ -314,8 +317,23 @@ class Reconstructor:
             return p, t, e
         h = model.height_above(p)
         keep = (h >= self._min_height(model)) & (h <= self.config.seabed.max_height)
+        if isinstance(model, TexturedSeabed):
+            keep |= self._flanks(p, keep & (h >= self.config.min_object_height), model)
         self.seabed_removed += int((~keep).sum())
         return p[keep], t[keep], e[keep]
+
+    def _flanks(self, p: F64, anchor: NDArray[np.bool_], model: TexturedSeabed) -> NDArray[np.bool_]:
+        """The lower parts of objects: points the texture grid would remove that stand above the tiled planes
+        (``seabed.min_height``) within ``flank_radius`` m (horizontally) of a point at least
+        ``min_object_height`` above the grid. A crest of the texture has no such point near it; an object's
+        flanks, lower than its top, do (the classifier needs the whole cloud)."""
+        out = np.zeros(p.shape[0], bool)
+        hc = model.coarse.height_above(p)
+        cand = ~anchor & (hc >= self.config.seabed.min_height) & (hc <= self.config.seabed.max_height)
+        if anchor.any() and cand.any():
+            d, _ = cKDTree(p[anchor, :2]).query(p[cand, :2], distance_upper_bound=self.config.flank_radius)
+            out[np.flatnonzero(cand)[np.isfinite(d)]] = True
+        return out
 
     def _objects_on_seabed(self, objects: list[DetectedObject]) -> list[DetectedObject]:
         """Each object with the depth of the seabed under it (the poll's model), and the clutter tests:
@@ -333,7 +351,9 @@ class Reconstructor:
                 self.rejected["too_wide"] += 1
                 continue
             if model is not None:
-                ground = model.depth_at(o.points[:, :2])
+                # the planes, not the texture grid: the grid may pass over part of a large object
+                planes = model.coarse if isinstance(model, TexturedSeabed) else model
+                ground = planes.depth_at(o.points[:, :2])
                 top = float(np.percentile(ground - o.points[:, 2], 95))
                 if top < max(self.config.min_object_height, self._min_height(model)):
                     self.rejected["too_low"] += 1

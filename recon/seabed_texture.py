@@ -9,16 +9,21 @@ bottom points) per horizontal cell (``cell`` m, grid anchored at the world origi
 of squares of depth, so memory is bounded by the area surveyed, not the number of frames.
 
 :func:`fit_textured` builds, over a box, a :class:`TexturedSeabed`: the residual of each cell's mean
-depth above the tiled planes, compared with the median of its neighbourhood (``window_m`` on each
-side). Objects stand out of their neighbourhood by far more than the texture does: a cell higher than
+depth above the tiled planes, compared with the level of its neighbourhood (``window_m`` on each
+side): the mean of the neighbourhood's seabed cells (cells without samples, in a narrow swath or an
+object's shadow, do not count), recomputed ``iterations`` times without the object cells found.
+Objects stand out of their neighbourhood by far more than the texture does: a cell higher than
 the neighbourhood by ``clip_k`` robust sigmas of those differences (measured on the box, so the
-threshold follows the seabed at hand) is an object cell; object cells (grown by one cell) and empty cells
-take the neighbourhood's level instead (the median recomputed without them; cells without a seabed
-sample enter it with their nearest seabed cell's value). Depth at a point is the
+threshold follows the seabed at hand) is an object cell; object cells (grown by ``grow_m``: an object's
+flanks stand lower than its top) and empty cells
+take the neighbourhood's level instead (the level recomputed without them). Depth at a point is the
 planes plus the bilinear interpolation of the cell residuals.
 
-The seabed noise (:attr:`TexturedSeabed.sigma`) is measured too: the RMS spread of the samples inside
-the seabed cells about their cell mean (sonar range quantization, speckle, texture finer than a cell).
+The seabed noise (:attr:`TexturedSeabed.sigma`) is measured too (:meth:`SeabedCells.noise`): the
+median, over every cell surveyed so far, of the spread of its samples about its mean (sonar range
+quantization, speckle, texture finer than a cell); objects are few among all the cells, so they do not
+set it. Each fit sees ``context_m`` of seabed around the points it filters, so an object is a
+minority of its cells too.
 Object points are those at least ``max(min_height, k_sigma * sigma)`` above the
 model (:meth:`TexturedSeabed.min_height`); the noise is measured only on ``min_sigma_cells`` seabed cells or
 more (the first seconds of a line hold few, and an object among them would set it).
@@ -30,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.ndimage import binary_dilation, distance_transform_edt, median_filter
+from scipy.ndimage import binary_dilation, uniform_filter
 
 from recon.seabed import SeabedModel
 
@@ -42,9 +47,12 @@ class TextureConfig:
     enabled: bool = True
     cell: float = 0.5  # m
     window_m: float = 3.0  # m each side: objects (<= 3 m) must stand out of this neighbourhood
+    context_m: float = 8.0  # m of seabed around the new points that each fit sees (objects a minority in it)
     clip_k: float = 3.0  # object cell: higher than its neighbourhood by this many robust sigmas
+    iterations: int = 3  # rounds of: level of the seabed cells around, object cells out
     sigma_floor: float = 0.02  # m: floor of that sigma (a smooth seabed)
     min_count: int = 2  # samples for a cell to count
+    grow_m: float = 1.0  # m: object cells grow by this much (an object's flanks are lower than its top)
     k_sigma: float = 3.0  # object points: at least k_sigma * the measured seabed noise above the model
     min_sigma_cells: int = 25  # seabed cells (3+ samples) needed to measure the noise; fewer: the floor alone
     max_cells: int = 400_000  # a box larger than this many cells is fitted at a coarser cell
@@ -99,6 +107,18 @@ class SeabedCells:
         self._sums[rows, 1] += np.bincount(inv, weights=z, minlength=keys.size)
         self._sums[rows, 2] += np.bincount(inv, weights=z * z, minlength=keys.size)
 
+    def noise(self, min_cells: int) -> float:
+        """The seabed noise (m): the median over every cell with 3+ samples of the samples' standard
+        deviation about the cell mean; 0 with fewer than ``min_cells`` such cells. Over the whole area
+        surveyed so far, objects are a small minority of the cells, so they do not set it."""
+        s = self._sums[: self._n]
+        ok = s[:, 0] >= 3
+        if int(ok.sum()) < min_cells:
+            return 0.0
+        m = s[ok, 1] / s[ok, 0]
+        var = np.maximum(s[ok, 2] / s[ok, 0] - m * m, 0.0)
+        return float(np.sqrt(np.median(var)))
+
     def grid(self, lo: F64, hi: F64) -> tuple[NDArray[np.int64], F64]:
         """Cell index of the box's first cell and the (nx, ny, 3) sums of the cells from ``lo`` to ``hi``."""
         i0 = np.floor(np.asarray(lo) / self.cell).astype(np.int64)
@@ -120,6 +140,7 @@ class TexturedSeabed:
         self.sigma = float(sigma)
         self.object_cells = objects
         self.config = config
+        self.level_sigma = 0.0  # m: robust spread of the cells about their neighbourhood's level
 
     def depth_at(self, xy: ArrayLike) -> F64:
         """Seabed depth (m, NED z) under ``xy`` (N, 2 or 3): planes + bilinear cell residual."""
@@ -168,7 +189,6 @@ def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: Arr
     n = sums[..., 0]
     ok = n >= config.min_count
     mean = np.where(ok, sums[..., 1] / np.maximum(n, 1), np.nan)
-    var = np.where(ok, sums[..., 2] / np.maximum(n, 1) - np.nan_to_num(mean) ** 2, np.nan)
     centres = (np.stack(np.meshgrid(np.arange(n.shape[0]), np.arange(n.shape[1]), indexing="ij"), -1)
                + i0 + 0.5) * c
     base = coarse.depth_at(centres.reshape(-1, 2)).reshape(n.shape)
@@ -177,22 +197,25 @@ def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: Arr
     objects = np.zeros(n.shape, bool)
     med = np.zeros(n.shape)
     sigma_c = config.sigma_floor
-    for _ in range(2):
+    for _ in range(config.iterations):
         use = ok & ~objects
         if not use.any():
             break
-        # empty cells take their nearest seabed cell's value (at the edge of the covered area a fill with the
-        # planes' level would drag the median towards the planes, and flag the real seabed there as objects)
-        near = distance_transform_edt(~use, return_distances=False, return_indices=True)
-        med = median_filter(r[near[0], near[1]], size=size, mode="nearest")
+        # the mean of the seabed cells of the window: empty cells (a narrow swath, the shadows behind objects)
+        # and the object cells found so far do not count
+        w = uniform_filter(use.astype(np.float64), size=size, mode="constant")
+        v = uniform_filter(np.where(use, r, 0.0), size=size, mode="constant")
+        med = np.where(w > 1e-9, v / np.maximum(w, 1e-9), float(np.median(r[use])))
         d = r - med
         dv = d[use]
         if dv.size >= 8:
             sigma_c = max(config.sigma_floor, 1.4826 * float(np.median(np.abs(dv - np.median(dv)))))
         objects = ok & (d < -config.clip_k * sigma_c)  # higher than the neighbourhood: an object
-        objects = binary_dilation(objects, iterations=1) & ok
+        if objects.any():
+            objects = binary_dilation(objects, iterations=max(1, round(config.grow_m / c))) & ok
     seabed = ok & ~objects
     resid = np.where(seabed, r, med)
-    v = var[seabed & (n >= 3)]
-    sigma = float(np.sqrt(np.median(np.maximum(v, 0.0)))) if v.size >= config.min_sigma_cells else 0.0
-    return TexturedSeabed(coarse, i0, c, resid, sigma, objects, config)
+    sigma = cells.noise(config.min_sigma_cells)
+    model = TexturedSeabed(coarse, i0, c, resid, sigma, objects, config)
+    model.level_sigma = sigma_c
+    return model
