@@ -318,18 +318,19 @@ class Reconstructor:
         h = model.height_above(p)
         keep = (h >= self._min_height(model)) & (h <= self.config.seabed.max_height)
         if isinstance(model, TexturedSeabed):
-            keep |= self._flanks(p, keep & (h >= self.config.min_object_height), model)
+            thr = self._min_height(model)
+            keep |= self._flanks(p, keep & (h >= max(2.0 * self.config.min_object_height, 3.0 * thr)), model, thr)
         self.seabed_removed += int((~keep).sum())
         return p[keep], t[keep], e[keep]
 
-    def _flanks(self, p: F64, anchor: NDArray[np.bool_], model: TexturedSeabed) -> NDArray[np.bool_]:
-        """The lower parts of objects: points the texture grid would remove that stand above the tiled planes
-        (``seabed.min_height``) within ``flank_radius`` m (horizontally) of a point at least
-        ``min_object_height`` above the grid. A crest of the texture has no such point near it; an object's
-        flanks, lower than its top, do (the classifier needs the whole cloud)."""
+    def _flanks(self, p: F64, anchor: NDArray[np.bool_], model: TexturedSeabed, thr: float) -> NDArray[np.bool_]:
+        """The lower parts of objects: points the texture grid would remove that stand ``thr`` m above the tiled
+        planes within ``flank_radius`` m (horizontally) of an anchor, a point well above the grid (twice
+        ``min_object_height`` and three thresholds). A crest of the texture has no such point near it; a large
+        object the grid partly followed has, and its flanks stay (the classifier needs the whole cloud)."""
         out = np.zeros(p.shape[0], bool)
         hc = model.coarse.height_above(p)
-        cand = ~anchor & (hc >= self.config.seabed.min_height) & (hc <= self.config.seabed.max_height)
+        cand = ~anchor & (hc >= thr) & (hc <= self.config.seabed.max_height)
         if anchor.any() and cand.any():
             d, _ = cKDTree(p[anchor, :2]).query(p[cand, :2], distance_upper_bound=self.config.flank_radius)
             out[np.flatnonzero(cand)[np.isfinite(d)]] = True

@@ -53,7 +53,7 @@ class TextureConfig:
     sigma_floor: float = 0.02  # m: floor of that sigma (a smooth seabed)
     min_count: int = 2  # samples for a cell to count
     grow_m: float = 1.0  # m: object cells grow by this much (an object's flanks are lower than its top)
-    k_sigma: float = 3.0  # object points: at least k_sigma * the measured seabed noise above the model
+    k_sigma: float = 5.0  # object points: at least k_sigma * the measured seabed noise above the model
     min_sigma_cells: int = 25  # seabed cells (3+ samples) needed to measure the noise; fewer: the floor alone
     max_cells: int = 400_000  # a box larger than this many cells is fitted at a coarser cell
 

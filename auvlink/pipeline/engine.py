@@ -280,7 +280,8 @@ class Engine:
         rec = self.rec
         return {**self.counts, "nav_samples": dict(self.nav.samples), "nav_late_samples": self.nav.late,
                 "frames_with_points": rec.frames_with_points if rec else 0, "points": rec.points_total if rec else 0,
-                "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections)}
+                "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections),
+                "rejected_not_objects": dict(getattr(rec, "rejected", {})) if rec else {}}
 
     def track(self, step: int = 5) -> np.ndarray:
         return self.nav.positions(step)[1]
