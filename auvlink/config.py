@@ -25,6 +25,14 @@ also give radians. Every key is checked: a wrong or missing key raises
 
     [can]                             # optional
     dbc = "auvlink_nav.dbc"           # DBC file name (relative to the config or the package data)
+
+    [site]                            # optional: WGS84 position of the local NED origin (the datum)
+    latitude = 36.0412                # deg, + north
+    longitude = 129.3915              # deg, + east
+    height = 0.0                      # optional, m above the WGS84 ellipsoid
+
+A GNSS receiver is a device with ``format = "nmea"``; its ``mounting.xyz`` is the antenna's lever arm.
+Without ``[site]`` the first accepted GNSS fix becomes the datum (see docs/GEO.md).
 """
 
 from __future__ import annotations
@@ -38,8 +46,9 @@ from typing import Any
 
 from auvlink import formats
 from auvlink.errors import ConfigError
+from auvlink.geodesy import Datum, parse_site
 
-_TOP_KEYS = {"vehicle", "devices", "sonar", "can"}
+_TOP_KEYS = {"vehicle", "devices", "sonar", "can", "site"}
 _VEHICLE_KEYS = {"name"}
 _DEVICE_KEYS = {"name", "format", "url", "mounting", "options"}
 _MOUNTING_KEYS = {"xyz", "rpy_deg"}
@@ -104,6 +113,7 @@ class VehicleConfig:
     devices: tuple[DeviceConfig, ...]
     sonar: SonarConfig | None = None
     can: CanConfig | None = None
+    site: Datum | None = None
     source: str = "<string>"
     text: str = ""
 
@@ -130,6 +140,8 @@ class VehicleConfig:
                             "window_length": self.sonar.window_length, "device": self.sonar.device}
         if self.can is not None:
             out["can"] = {"dbc": self.can.dbc}
+        if self.site is not None:
+            out["site"] = self.site.to_dict()
         return out
 
 
@@ -241,7 +253,8 @@ def parse_config(data: Mapping[str, Any], source: str = "<string>", text: str = 
         c = _table(data, "can")
         _check_keys(c, _CAN_KEYS, "can.")
         can = CanConfig(dbc=_str(c, "dbc", "can.", required=False))
-    return VehicleConfig(name=name, devices=devices, sonar=sonar, can=can, source=source, text=text)
+    site = parse_site(dict(_table(data, "site")), "site.") if "site" in data else None
+    return VehicleConfig(name=name, devices=devices, sonar=sonar, can=can, site=site, source=source, text=text)
 
 
 def loads_config(text: str, source: str = "<string>") -> VehicleConfig:

@@ -13,6 +13,9 @@ Optional keys beyond the architecture's table (all with defaults):
 - ``[vehicle] current = [north, east]`` water current (m/s, default none), ``roll_amplitude_deg``
   (1.0), ``pitch_amplitude_deg`` (0.5), ``yaw_amplitude_deg`` (0.5), ``roll_period_s`` (7.0),
   ``pitch_period_s`` (11.0), ``yaw_period_s`` (17.0): the small seeded attitude oscillations.
+- ``[site] latitude``, ``longitude`` (WGS84 degrees), ``height`` (m above the ellipsoid, 0): the datum,
+  W's origin on the surface (:mod:`auvlink.geodesy`). Default: Jangil Bay, Pohang (36.0412 N, 129.3915 E).
+- ``[gnss]``: the GNSS receiver and the surface phases of the mission (:mod:`auvlink.sim.gnss_config`).
 """
 
 from __future__ import annotations
@@ -23,9 +26,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from auvlink.errors import ConfigError
+from auvlink.geodesy import JANGIL_BAY, Datum, parse_site
+
+DEFAULT_SITE = Datum(*JANGIL_BAY)
+
+if TYPE_CHECKING:
+    from auvlink.sim.gnss_config import Gnss
 
 #: Object catalog class names, in a fixed order (class index = position in this tuple).
 CLASSES: tuple[str, ...] = (
@@ -102,6 +111,8 @@ class Scene:
     sonar: SonarConfig
     vehicle: Vehicle = Vehicle()
     source: str = ""  # file the scene came from ("" when built in code)
+    site: Datum = DEFAULT_SITE  # WGS84 position of W's origin
+    gnss: Gnss | None = None  # None: no GNSS, the mission is the survey alone
 
 
 # --- field readers -------------------------------------------------------------------------
@@ -262,8 +273,11 @@ def parse_scene(doc: Mapping[str, Any], source: str = "") -> Scene:
     if cur >= survey.speed:
         raise ConfigError("vehicle.current", f"current {cur:.2f} m/s is not below survey.speed",
                           "use a current slower than the survey speed")
+    from auvlink.sim.gnss_config import parse_gnss
+
+    site = parse_site(dict(_table(doc, "site")), "site.") if "site" in doc else DEFAULT_SITE
     return Scene(seed=seed, seabed=seabed, objects=_objects(doc), survey=survey, sonar=_sonar(doc),
-                 vehicle=vehicle, source=source)
+                 vehicle=vehicle, source=source, site=site, gnss=parse_gnss(doc))
 
 
 def load_scene(path: str | Path) -> Scene:
