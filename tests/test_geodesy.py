@@ -55,13 +55,13 @@ def test_surface_distance_matches_the_geodesic() -> None:
 
 def test_parse_site_and_errors() -> None:
     assert parse_site({"latitude": 36.0412, "longitude": 129.3915}) == Datum(36.0412, 129.3915, 0.0)
-    with pytest.raises(ConfigError, match="site.lat"):
+    with pytest.raises(ConfigError, match=r"site\.lat"):
         parse_site({"lat": 1.0, "longitude": 2.0})
-    with pytest.raises(ConfigError, match="site.longitude"):
+    with pytest.raises(ConfigError, match=r"site\.longitude"):
         parse_site({"latitude": 1.0})
-    with pytest.raises(ConfigError, match="site.latitude"):
+    with pytest.raises(ConfigError, match=r"site\.latitude"):
         parse_site({"latitude": 91.0, "longitude": 0.0})
-    with pytest.raises(ConfigError, match="site.longitude"):
+    with pytest.raises(ConfigError, match=r"site\.longitude"):
         parse_site({"latitude": 1.0, "longitude": "east"})
     assert Datum.from_dict({"latitude": 1.0, "longitude": 2.0}) == Datum(1.0, 2.0)
     assert Datum.from_dict(None) is None
