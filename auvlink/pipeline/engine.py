@@ -12,7 +12,11 @@ time of the sample being read), in ``(receive time, arrival)`` order:
    and the settings only, never on when they arrived; frames before the navigation starts or more
    than ``max_extrapolation_s`` past it are skipped and counted;
 3. every ``poll_s`` of mission time the streaming clusterer finalizes the objects the vehicle is
-   past; each is classified at once and handed to ``on_detection``.
+   past; each is classified at once and handed to ``on_detection``;
+4. GNSS fixes and depth go to :class:`auvlink.pipeline.georef.Georef`: dead reckoning runs in its own
+   frame D (origin: the first navigation sample); a detection is handed on in W with the start anchor
+   (the pre-dive fixes), and :meth:`Engine.finish` moves every detection and the track by the drift
+   correction (the closure error after surfacing, linear in time over the submerged track).
 
 Replaying a log recorded by ``auvlink live`` with the live settings (stored in the log) therefore
 gives the live detections, apart from the frames the live run dropped (counted there).
@@ -30,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from auvlink.pipeline.georef import Georef
 from auvlink.pipeline.latency import StageTimes
 from auvlink.pipeline.process import Detection, StripFrame, default_recon_config
 from auvlink.pipeline.route import DvlPayload, Event, Router, SonarPayload
@@ -75,6 +80,8 @@ class Engine:
         self.recon_config = recon_config or default_recon_config()
         self.nav = CausalNavigator(nav_config(setup), self.config.max_extrapolation_s)
         self.router = Router()
+        self.georef = Georef(setup.site, setup.gnss_lever_arm or (0.0, 0.0, 0.0), setup.gnss_lever_arm is not None)
+        self._applied: dict[int, np.ndarray] = {}  # detection id -> the D -> W shift it was handed on with
         self.times = StageTimes()
         self.detections: list[Detection] = []
         self.strip: list[StripFrame] = []
@@ -138,12 +145,13 @@ class Engine:
         return self._run_frames(final=watermark_ns is None)
 
     def _navigate(self, events: list[Event]) -> None:
-        from recon.nav import DepthSamples, DvlSamples, GyroSamples
+        from recon.nav import DepthSamples, DvlSamples, GyroSamples, pressure_to_depth
 
         dvl = [e for e in events if e.kind == "dvl"]
         gyro = [e for e in events if e.kind == "gyro"]
         depth = [e for e in events if e.kind == "depth"]
-        if not (dvl or gyro or depth):
+        gnss = [e for e in events if e.kind == "gnss"]
+        if not (dvl or gyro or depth or gnss):
             return
         t0 = time.perf_counter()
         d = g = p = None
@@ -160,7 +168,14 @@ class Engine:
         if depth:
             p = DepthSamples(t=np.array([self._t(e.t_ns) for e in depth]),
                              pressure_pa=np.array([e.payload for e in depth]))
-        self.nav.add(d, g, p)
+        if d is not None or g is not None or p is not None:
+            self.nav.add(d, g, p)
+        if p is not None:
+            c = self.nav.config
+            self.georef.on_depth(np.asarray(p.t), pressure_to_depth(p.pressure_pa, c.seawater_density, c.gravity,
+                                                                    c.atmospheric_pa))
+        for e in gnss:
+            self.georef.on_fix(self._t(e.t_ns), e.payload, self.nav)
         self.times.add("navigation", time.perf_counter() - t0)
 
     # ------------------------------------------------------------------ frames
@@ -232,15 +247,41 @@ class Engine:
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
         for o, (c, s) in zip(objects, labels, strict=True):
+            shift = self.georef.shift(0.5 * (float(o.t_first) + float(o.t_last)), corrected=False)[0]
+            centre = np.asarray(o.centroid, dtype=np.float64) + shift
             det = Detection(id=int(o.id), class_name=c, score=float(s),
-                            position_ned=(float(o.centroid[0]), float(o.centroid[1]), float(o.centroid[2])),
+                            position_ned=(float(centre[0]), float(centre[1]), float(centre[2])),
                             size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
                             n_points=int(o.n_points), t_first=epoch + float(o.t_first),
-                            t_last=epoch + float(o.t_last), points=o.points)
+                            t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points)
+            self._locate(det, shift)
             self.detections.append(det)
             self._pick_strip(float(o.t_first))
             if self._on_detection is not None:
                 self._on_detection(det)
+
+    def _locate(self, det: Detection, shift: np.ndarray, correction: np.ndarray | None = None) -> None:
+        """Record the D -> W shift a detection carries, its frame and lat/lon."""
+        self._applied[det.id] = shift
+        geo = self.georef
+        det.frame = "site" if geo.georeferenced else "first_navigation_sample"
+        if geo.georeferenced:
+            lat, lon = geo.latlon(np.asarray(det.position_ned))
+            det.latitude, det.longitude = float(lat[0]), float(lon[0])
+        if correction is not None:
+            det.drift_correction_ne = (float(correction[0]), float(correction[1]))
+
+    def _georeference_final(self) -> None:
+        """End of the mission: every detection to the corrected track (closure error distributed)."""
+        epoch = (self.t0_ns or 0) * 1e-9
+        for det in self.detections:
+            t_mid = 0.5 * (det.t_first + det.t_last) - epoch
+            target = self.georef.shift(t_mid, corrected=True)[0]
+            delta = target - self._applied.get(det.id, np.zeros(3))
+            if np.any(delta):
+                det.position_ned = tuple(float(v) for v in np.asarray(det.position_ned) + delta)  # type: ignore[assignment]
+                det.points = det.points + delta
+            self._locate(det, target, self.georef.anchor.correction_at(t_mid)[0])
 
     def _pick_strip(self, t_first: float) -> None:
         if len(self.strip) >= self._strip_max or not self._ring:
@@ -264,6 +305,7 @@ class Engine:
             objs = self.rec.finish()
             self.times.add("clustering", time.perf_counter() - t0)
             self._emit(objs)
+        self._georeference_final()
         return self.detections
 
     # ------------------------------------------------------------------ reporting
@@ -274,7 +316,28 @@ class Engine:
                 "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections)}
 
     def track(self, step: int = 5) -> np.ndarray:
-        return self.nav.positions(step)[1]
+        """Vehicle positions in W (corrected for drift once the mission is finished)."""
+        t, pos = self.nav.positions(step)
+        return pos + self.georef.shift(t, corrected=self._finished) if t.size else pos
+
+    def track_table(self, step: int = 5) -> dict[str, np.ndarray]:
+        """The columns of ``track.csv``: UTC s, lat, lon (NaN without a datum), north, east, depth (m), altitude
+        (m), heading (deg), the drift correction applied (north, east m); ``fixes``: (t, north, east) of the fixes."""
+        t, pos = self.nav.positions(step)
+        fixes = np.asarray(self.georef.fixes_ne, dtype=np.float64).reshape(-1, 3)
+        epoch = (self.t0_ns or 0) * 1e-9
+        fixes[:, 0] += epoch
+        if not t.size:
+            return {"fixes": fixes}
+        corr = self.georef.anchor.correction_at(t) if self._finished and self.georef.offset is not None \
+            else np.zeros((t.size, 2))
+        w = pos + self.georef.shift(t, corrected=self._finished)
+        lat, lon = self.georef.latlon(w)
+        _, rot = self.nav.pose_at(t)
+        heading = np.mod(np.degrees(rot.as_euler("ZYX")[:, 0]), 360.0)
+        return {"time": t + epoch, "lat": lat, "lon": lon, "north": w[:, 0], "east": w[:, 1], "depth": w[:, 2],
+                "altitude": self.nav.altitude_at(t), "heading": heading, "correction_north": corr[:, 0],
+                "correction_east": corr[:, 1], "fixes": fixes}
 
     def highlight_points(self) -> np.ndarray:
         return self.rec.raw_points if self.rec is not None else np.zeros((0, 3))

@@ -1,6 +1,7 @@
 """Sort decoded samples by what they measure: navigation inputs and sonar frames, as small events.
 
-An event is ``(t_ns, seq, kind, payload)``; ``kind`` is ``dvl``, ``gyro``, ``depth`` or ``sonar``.
+An event is ``(t_ns, seq, kind, payload)``; ``kind`` is ``dvl``, ``gyro``, ``depth``, ``gnss`` (a GGA fix,
+:class:`auvlink.pipeline.georef.GnssPayload`) or ``sonar``.
 Samples of other formats (the CAN navigation bus, Keller requests) give no event. The order key
 ``(t_ns, seq)`` is the host receive time then the arrival order, so a log replays in the order the
 live run saw.
@@ -48,6 +49,7 @@ class Router:
         self.gyro_kind = "rate"
         self.counts: dict[str, int] = {}
         self._keller_request: dict[int, Any] = {}
+        self._gga_devices: set[str] = set()
 
     def route(self, s: Sample) -> Event | None:
         self.counts[s.device] = self.counts.get(s.device, 0) + 1
@@ -78,6 +80,14 @@ class Router:
             return ("depth", float(p)) if p is not None and np.isfinite(p) else None
         if fmt == "keller":
             return self._keller(r)
+        if fmt == "nmea":
+            from auvlink.codecs.nmea import GgaFix
+            from auvlink.pipeline.georef import gnss_payload
+
+            if isinstance(r, GgaFix):
+                self._gga_devices.add(device)
+            fix = gnss_payload(r, device in self._gga_devices)
+            return None if fix is None else ("gnss", fix)
         if fmt in ("didson", "aris"):
             return "sonar", SonarPayload(device, np.asarray(r.image),
                                          (float(r.window_start_m), float(r.window_length_m)),

@@ -32,6 +32,9 @@ class MissionSetup:
     pressure_lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
     truth: tuple[TruthObject, ...] = ()
     truth_track: Any = None  # (times s since epoch, positions (n, 3)) when the log has it
+    site: Any = None  # auvlink.geodesy.Datum of the configuration's [site], or None
+    gnss_lever_arm: tuple[float, float, float] | None = None  # the GNSS antenna (None: no GNSS device)
+    truth_site: Any = None  # the datum of the simulator's truth (its NED frame), when the log has one
     extra: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
@@ -54,7 +57,13 @@ class MissionSetup:
                 kw["dvl_yaw_deg"] = float(rpy[2])
             elif dev.get("format") in ("paro", "keller"):
                 kw["pressure_lever_arm"] = xyz
+            elif dev.get("format") == "nmea":
+                kw["gnss_lever_arm"] = xyz
+        from auvlink.geodesy import Datum
+
+        kw["site"] = Datum.from_dict(cfg.get("site"))
         gt = meta.get("ground_truth") or {}
+        kw["truth_site"] = Datum.from_dict(gt.get("site"))
         kw["truth"] = tuple(_truth_objects(gt))
         return cls(**kw)
 
