@@ -9,13 +9,14 @@ antenna in the body frame, so the fixes of a vehicle that moves or rolls on the 
 
 - **Before the dive** (until the first depth sample deeper than ``dive_depth_m``, at ``t_dive``) every
   accepted fix is a *pre-dive* fix; the anchor is the mean of their residuals within a robust gate of
-  their median (``max(gate_m, gate_sigmas x 1.4826 MAD)``), once at least ``min_fixes`` are inliers.
+  their median (``gate_sigmas x 1.4826 MAD``, within [``gate_m``, ``max_gate_m``]), once at least
+  ``min_fixes`` are inliers (fewer: no anchor rather than a bad one).
   ``p_W = p_D + anchor``.
 - **After surfacing** (fixes after ``t_dive`` while the navigation depth is above ``surface_depth_m``)
   the same robust mean of ``fix - (p_D + anchor + R lever)`` is the *closure error* ``c``: where dead
-  reckoning had drifted to when the vehicle came up. The correction applied at time t is
-  ``c x clip((t - t_dive) / (t_surfaced - t_dive), 0, 1)`` (``t_surfaced`` = the first post-surfacing
-  fix): zero at the dive, the whole closure at the surface, linear in time in between (dead reckoning
+  reckoning had drifted to, at ``t_closure``, the mean time of those fixes. The correction applied at
+  time t is ``c x clip((t - t_dive) / (t_closure - t_dive), 0, 1)``: zero at the dive, the whole
+  closure at the surface, linear in time in between (dead reckoning
   drift from a heading or scale error grows about linearly with distance, and the survey speed is
   constant, so time and distance give nearly the same weights).
 - Without an anchor but with fixes after surfacing, those fixes give the anchor alone (a constant
@@ -47,6 +48,7 @@ class AnchorConfig:
     dive_depth_m: float = 2.0  # deeper than this: the vehicle has left the surface
     max_hdop: float = 5.0
     gate_m: float = 2.0  # smallest outlier gate around the median (m)
+    max_gate_m: float = 10.0  # largest: fixes that scatter more than this are not a position
     gate_sigmas: float = 5.0
     min_fixes: int = 3
 
@@ -57,7 +59,7 @@ def robust_mean(r: F64, cfg: AnchorConfig) -> tuple[F64 | None, NDArray[np.bool_
         return None, np.zeros(0, bool)
     med = np.median(r, axis=0)
     dist = np.linalg.norm(r - med, axis=1)
-    gate = max(cfg.gate_m, cfg.gate_sigmas * 1.4826 * float(np.median(dist)))
+    gate = min(cfg.max_gate_m, max(cfg.gate_m, cfg.gate_sigmas * 1.4826 * float(np.median(dist))))
     inl = dist <= gate
     if int(inl.sum()) < cfg.min_fixes:
         return None, inl
@@ -167,15 +169,22 @@ class GnssAnchor:
 
     @property
     def t_surfaced(self) -> float | None:
+        """Time of the first fix after surfacing."""
         return self.post.t[0] if self.post.t else None
+
+    @property
+    def t_closure(self) -> float | None:
+        """The time the closure error refers to: the mean time of the post-surfacing inlier fixes."""
+        _, inl = robust_mean(self.post.array(), self.config)
+        return float(np.mean(np.asarray(self.post.t)[inl])) if inl.any() else None
 
     def correction_at(self, t: ArrayLike) -> F64:
         """The drift correction (n, 2) to add at times ``t`` (zeros without a closure)."""
         ta = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        c = self.closure
-        if c is None or self.t_dive is None or self.t_surfaced is None:
+        c, t_ref = self.closure, self.t_closure
+        if c is None or self.t_dive is None or t_ref is None:
             return np.zeros((ta.size, 2))
-        span = max(self.t_surfaced - self.t_dive, 1e-9)
+        span = max(t_ref - self.t_dive, 1e-9)
         w = np.clip((ta - self.t_dive) / span, 0.0, 1.0)
         return w[:, None] * c[None, :]
 
@@ -199,8 +208,8 @@ class GnssAnchor:
             "offset_ne_m": None if self.offset is None else [float(v) for v in self.offset],
             "closure_ne_m": None if closure is None else [float(v) for v in closure],
             "closure_m": None if closure is None else float(np.hypot(*closure)),
-            "t_dive_s": self.t_dive, "t_surfaced_s": self.t_surfaced,
-            "correction": "linear in time from the dive to the first fix after surfacing" if closure is not None
+            "t_dive_s": self.t_dive, "t_surfaced_s": self.t_surfaced, "t_closure_s": self.t_closure,
+            "correction": "linear in time from the dive to the fixes after surfacing" if closure is not None
             else "none",
             "fixes": counts,
         }

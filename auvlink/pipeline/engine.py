@@ -49,6 +49,7 @@ class EngineConfig:
     frame_block: int = 1  # sonar frames per reconstruction call (live: 1 for latency)
     poll_s: float = 1.0  # mission seconds between streaming-clustering polls
     max_extrapolation_s: float = 1.0  # a frame this far past the last navigation sample is skipped
+    max_pitch_deg: float = 15.0  # frames while the vehicle pitches more (diving, climbing) are skipped
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -193,6 +194,11 @@ class Engine:
         times = np.array([self._t(t) for t, _ in group])
         ok = self.nav.covered(times)
         self.counts["frames_without_navigation"] += int((~ok).sum())
+        if ok.any():  # diving or climbing: the seabed sweeps through the beam, no survey geometry
+            _, rot = self.nav.pose_at(times[ok])
+            steep = np.abs(rot.as_euler("ZYX")[:, 1]) > np.radians(self.config.max_pitch_deg)
+            self.counts["frames_pitched"] = self.counts.get("frames_pitched", 0) + int(steep.sum())
+            ok[np.flatnonzero(ok)[steep]] = False
         for (_, fr), t in zip(group, times, strict=True):
             self._ring.append((float(t), fr.image))
         if not ok.any():
@@ -261,27 +267,12 @@ class Engine:
                 self._on_detection(det)
 
     def _locate(self, det: Detection, shift: np.ndarray, correction: np.ndarray | None = None) -> None:
-        """Record the D -> W shift a detection carries, its frame and lat/lon."""
         self._applied[det.id] = shift
-        geo = self.georef
-        det.frame = "site" if geo.georeferenced else "first_navigation_sample"
-        if geo.georeferenced:
-            lat, lon = geo.latlon(np.asarray(det.position_ned))
-            det.latitude, det.longitude = float(lat[0]), float(lon[0])
-        if correction is not None:
-            det.drift_correction_ne = (float(correction[0]), float(correction[1]))
+        self.georef.locate(det, correction)
 
     def _georeference_final(self) -> None:
         """End of the mission: every detection to the corrected track (closure error distributed)."""
-        epoch = (self.t0_ns or 0) * 1e-9
-        for det in self.detections:
-            t_mid = 0.5 * (det.t_first + det.t_last) - epoch
-            target = self.georef.shift(t_mid, corrected=True)[0]
-            delta = target - self._applied.get(det.id, np.zeros(3))
-            if np.any(delta):
-                det.position_ned = tuple(float(v) for v in np.asarray(det.position_ned) + delta)  # type: ignore[assignment]
-                det.points = det.points + delta
-            self._locate(det, target, self.georef.anchor.correction_at(t_mid)[0])
+        self.georef.finalize(self.detections, self._applied, (self.t0_ns or 0) * 1e-9)
 
     def _pick_strip(self, t_first: float) -> None:
         if len(self.strip) >= self._strip_max or not self._ring:
@@ -321,23 +312,8 @@ class Engine:
         return pos + self.georef.shift(t, corrected=self._finished) if t.size else pos
 
     def track_table(self, step: int = 5) -> dict[str, np.ndarray]:
-        """The columns of ``track.csv``: UTC s, lat, lon (NaN without a datum), north, east, depth (m), altitude
-        (m), heading (deg), the drift correction applied (north, east m); ``fixes``: (t, north, east) of the fixes."""
-        t, pos = self.nav.positions(step)
-        fixes = np.asarray(self.georef.fixes_ne, dtype=np.float64).reshape(-1, 3)
-        epoch = (self.t0_ns or 0) * 1e-9
-        fixes[:, 0] += epoch
-        if not t.size:
-            return {"fixes": fixes}
-        corr = self.georef.anchor.correction_at(t) if self._finished and self.georef.offset is not None \
-            else np.zeros((t.size, 2))
-        w = pos + self.georef.shift(t, corrected=self._finished)
-        lat, lon = self.georef.latlon(w)
-        _, rot = self.nav.pose_at(t)
-        heading = np.mod(np.degrees(rot.as_euler("ZYX")[:, 0]), 360.0)
-        return {"time": t + epoch, "lat": lat, "lon": lon, "north": w[:, 0], "east": w[:, 1], "depth": w[:, 2],
-                "altitude": self.nav.altitude_at(t), "heading": heading, "correction_north": corr[:, 0],
-                "correction_east": corr[:, 1], "fixes": fixes}
+        """The columns of ``track.csv`` (:meth:`auvlink.pipeline.georef.Georef.track_table`)."""
+        return self.georef.track_table(self.nav, (self.t0_ns or 0) * 1e-9, self._finished, step)
 
     def highlight_points(self) -> np.ndarray:
         return self.rec.raw_points if self.rec is not None else np.zeros((0, 3))

@@ -117,3 +117,44 @@ class Georef:
         out["positions"] = ("local NED at the site datum (m); lat/lon WGS84" if self.georeferenced else
                             "relative to the first navigation sample (no usable GNSS fix): no lat/lon")
         return out
+
+    # ------------------------------------------------------------------ detections and track
+    def locate(self, det: Any, correction: F64 | None = None) -> None:
+        """Set a detection's frame and lat/lon from its position (and the drift correction it got)."""
+        det.frame = "site" if self.georeferenced else "first_navigation_sample"
+        if self.georeferenced:
+            lat, lon = self.latlon(np.asarray(det.position_ned))
+            det.latitude, det.longitude = float(lat[0]), float(lon[0])
+        if correction is not None:
+            det.drift_correction_ne = (float(correction[0]), float(correction[1]))
+
+    def finalize(self, detections: list[Any], applied: dict[int, F64], epoch: float) -> None:
+        """Move every detection (position and points) to the corrected track at its middle time;
+        ``applied``: the shift each was handed on with (updated)."""
+        for det in detections:
+            t_mid = 0.5 * (det.t_first + det.t_last) - epoch
+            target = self.shift(t_mid, corrected=True)[0]
+            delta = target - applied.get(det.id, np.zeros(3))
+            if np.any(delta):
+                det.position_ned = tuple(float(v) for v in np.asarray(det.position_ned) + delta)
+                det.points = det.points + delta
+            applied[det.id] = target
+            self.locate(det, self.anchor.correction_at(t_mid)[0])
+
+    def track_table(self, nav: Any, epoch: float, finished: bool, step: int = 5) -> dict[str, F64]:
+        """The columns of ``track.csv``: UTC s, lat, lon (NaN without a georeference), north, east, depth,
+        altitude (m), heading (deg), the drift correction applied (north, east m), from the causal navigator
+        ``nav``; ``fixes``: (UTC s, north, east) of every fix with a position."""
+        t, pos = nav.positions(step)
+        fixes = np.asarray(self.fixes_ne, dtype=np.float64).reshape(-1, 3)
+        fixes[:, 0] += epoch
+        if not t.size:
+            return {"fixes": fixes}
+        corr = self.anchor.correction_at(t) if finished and self.offset is not None else np.zeros((t.size, 2))
+        w = pos + self.shift(t, corrected=finished)
+        lat, lon = self.latlon(w)
+        _, rot = nav.pose_at(t)
+        heading = np.mod(np.degrees(rot.as_euler("ZYX")[:, 0]), 360.0)
+        return {"time": t + epoch, "lat": lat, "lon": lon, "north": w[:, 0], "east": w[:, 1], "depth": w[:, 2],
+                "altitude": nav.altitude_at(t), "heading": heading, "correction_north": corr[:, 0],
+                "correction_east": corr[:, 1], "fixes": fixes}
