@@ -289,3 +289,33 @@ def test_the_writer_renames_when_closed_and_a_crash_leaves_the_partial(tmp_path:
     assert out.exists() and not partial_path(out).exists()
     with MissionLogReader(out) as reader:
         assert reader.complete
+
+
+CLOSE_ON_A_FULL_DISK = """
+import os, resource, signal, sys
+from logs_format import MissionLogWriter
+from logs_format.profile import LogError
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+log = MissionLogWriter(sys.argv[1], flush_interval=0, compression="none")
+for i in range(300):
+    log("gyro", "dsp1760", 1_000_000 * (i + 1), bytes(1000))
+log.flush()  # the chunk on disk: the disk is full from here (the summary section, in the buffer, fails)
+size = os.path.getsize(getattr(log, "partial", sys.argv[1])) + 16
+resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
+try:
+    log.close()
+except LogError as exc:
+    print("LogError:", exc)
+"""
+
+
+def test_the_writer_closing_on_a_full_disk_raises_one_log_error(tmp_path: Path) -> None:
+    out = tmp_path / "m.mcap"
+    proc = subprocess.run([sys.executable, "-c", CLOSE_ON_A_FULL_DISK, str(out)], capture_output=True, text=True,
+                          cwd=ROOT, timeout=60)
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr  # no OSError from close
+    assert proc.stdout.startswith("LogError: writing") and "File too large" in proc.stdout
+    assert not partial_path(out).exists()  # a recording: kept under its name, cut
+    with MissionLogReader(out) as reader:
+        assert [m.log_time_ns for m in reader.messages()] == [1_000_000 * (i + 1) for i in range(300)]
+        assert not reader.complete
