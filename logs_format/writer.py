@@ -268,6 +268,13 @@ class MissionLogWriter:
     def close(self) -> None:
         """Write the last chunk and the summary, close the file and rename it to ``path`` (idempotent).
         A failure raises :class:`LogError` once, never a bare ``OSError`` (see the module docstring)."""
+        self._shutdown(finish=True)
+
+    def abort(self) -> None:
+        """Close without the summary; the file is removed unless ``keep_failed`` (then as :meth:`close`)."""
+        self._shutdown(finish=self.keep_failed)
+
+    def _shutdown(self, finish: bool) -> None:
         self._stop.set()
         if self._flusher is not None and self._flusher is not threading.current_thread():
             self._flusher.join()
@@ -278,42 +285,22 @@ class MissionLogWriter:
             failed_before = self._error is not None
             error: LogError | None = None
             try:
-                if not failed_before:
+                if finish and not failed_before:
                     self._guard(self._mcap.finish)
                     self._guard(self._file.flush)
                     if self.fsync:
                         self._guard(lambda: os.fsync(self._file.fileno()))
             except LogError as exc:
                 error = exc
-            finally:
-                self._close_file()
-            if error is None and not failed_before and self._error is not None:
-                error = LogError(f"writing {self.path} failed: {getattr(self._error, 'strerror', None) or self._error}")
-            self._commit(self._error is None or self.keep_failed)
+            try:
+                self._file.close()  # flushes the buffer: fails on a full disk; the descriptor is closed anyway
+            except OSError as exc:
+                self._error = self._error or exc
+                if finish and error is None and not failed_before:
+                    error = LogError(f"writing {self.path} failed: {exc.strerror or exc}")
+            self._commit(finish and (self._error is None or self.keep_failed))
         if error is not None:
             raise error
-
-    def abort(self) -> None:
-        """Close without the summary; the file is removed unless ``keep_failed`` (then as :meth:`close`)."""
-        if self.keep_failed:
-            self.close()
-            return
-        self._stop.set()
-        if self._flusher is not None and self._flusher is not threading.current_thread():
-            self._flusher.join()
-        with self._lock:
-            if self._closed:
-                return
-            self._closed = True
-            self._close_file()
-            self._commit(False)
-
-    def _close_file(self) -> None:
-        try:
-            self._file.close()  # flushes the buffer: fails on a full disk; the descriptor is closed anyway
-        except OSError as exc:
-            if self._error is None:
-                self._error = exc
 
     def _commit(self, keep: bool) -> None:
         if self.partial == self.path:

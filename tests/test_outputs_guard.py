@@ -104,6 +104,15 @@ def test_live_refuses_a_folder_holding_a_mission(tmp_path: Path, small_log: Path
     other.write_bytes(b"x")
     one_error_line(auvlink("live", cfg, "--out", tmp_path / "new", "--log", other), "exists", "--force")
     assert other.read_bytes() == b"x" and not (tmp_path / "new").exists()
+    (out / "objects").mkdir()
+    (out / "objects" / "object_007_box.ply").write_text("the last run's")
+    (out / "notes.txt").write_text("mine")
+    proc = auvlink("live", cfg, "--out", out, "--duration", "0.3", "--force", "--no-classify", "--no-report")
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "notes.txt").read_text() == "mine" and list((out / "objects").iterdir()) == []
+    with MissionLogReader(out / "mission.mcap") as log:
+        assert log.complete and sum(1 for _ in log.messages()) == 0  # the new (empty: loop://) mission
+    no_leftovers(out)
 
 
 def test_log_import_refuses_its_own_input_and_an_existing_log(tmp_path: Path, small_log: Path) -> None:

@@ -13,6 +13,7 @@ and DIR still gets every file that can be written. See docs/LIVE.md for real har
 from __future__ import annotations
 
 import argparse
+import shutil
 import signal
 import sys
 import threading
@@ -55,6 +56,9 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(args.out, force=args.force)
     check_output_file(args.log or args.out / "mission.mcap", force=args.force, inputs=[args.config],
                       option="--log", what="log")
+    objects = args.out / "objects"
+    if args.force and objects.is_dir() and not objects.is_symlink():
+        shutil.rmtree(objects)  # replaced whole, as replay does: no PLY of the last run beside the new ones
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
