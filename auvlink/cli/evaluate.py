@@ -45,16 +45,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from auvlink.atomic import check_output_dir, check_output_file, write_text
+
+    check_output_dir(args.out, force=args.force)  # before any work (and before torch loads)
+    if args.model is not None:
+        for name in ("eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png"):
+            check_output_file(args.out / name, force=True, inputs=[args.model], what="result")
     from auvlink.jsonutil import to_jsonable
     from classify.dataset import default_cache_dir
     from classify.evaluate import plot_confusion
     from classify.infer import Classifier
     from classify.workflow import evaluate_classifier, heldout_set
 
-    check_output_dir(args.out, force=args.force)
-    if args.model is not None:
-        for name in ("eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png"):
-            check_output_file(args.out / name, force=True, inputs=[args.model], what="result")
     clf = Classifier.load(args.model)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     extra: dict[str, object] = {}

@@ -32,11 +32,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from auvlink.atomic import check_output_file
+
+    check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
     from classify.config import load_train_settings, with_overrides
     from classify.dataset import default_cache_dir
     from classify.workflow import train_and_save
 
-    check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
                               args.threads)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
