@@ -112,7 +112,7 @@ def record(config_path: str, out: str, duration: float | None = None, *, compres
 def run(args: argparse.Namespace) -> int:
     from auvlink.atomic import check_output_file
 
-    check_output_file(args.out, force=args.force, inputs=[args.config])
+    check_output_file(args.out, force=args.force, inputs=[args.config], what="log")
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:

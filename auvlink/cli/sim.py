@@ -48,7 +48,7 @@ def _to_log(args: argparse.Namespace) -> int:
     from auvlink.atomic import check_output_file
     from auvlink.sim.mission import simulate_to_log
 
-    check_output_file(args.out, force=args.force, inputs=[args.scene] if args.scene else [])
+    check_output_file(args.out, force=args.force, inputs=[args.scene], what="log")
     result = simulate_to_log(_scene(args.scene), args.out, seed=args.seed, progress=not args.quiet,
                              duration=args.duration, noise=False if args.no_noise else None,
                              workers=args.workers)
