@@ -14,11 +14,12 @@ Every command that writes follows the same rules (``auvlink sim/record/live/repl
   is removed and the target is untouched. A mission log uses the visible name :func:`partial_path`
   (``LOG.mcap.partial``) instead, because a recording cut off by a crash must stay findable: it is
   readable up to its last complete chunk (see :class:`logs_format.writer.MissionLogWriter`).
-* **Output folders** (:func:`atomic_dir`): the files are written into a hidden temporary folder
-  beside the target; a new (or empty) target is replaced by one rename, so a crash leaves either
-  the old folder or the whole new one. Into a non-empty folder (``--force``) each top-level entry is
-  moved in by its own rename (a subfolder such as ``objects/`` is swapped whole), so files of other
-  names stay and no old file of a name the command writes survives beside the new ones.
+* **Output folders** (:func:`atomic_dir`): the files are written into a hidden temporary folder;
+  a new target is made by one rename of it, so a crash leaves no target or the whole new one. Into
+  an existing folder (empty, or any with ``--force``) each top-level entry is moved in by its own
+  rename (a subfolder such as ``objects/`` is swapped whole), so files of other names stay and no
+  old file of a name the command writes survives beside the new ones; a crash in that last step
+  (milliseconds) can leave some entries new and some old, never a half-written file.
 
 ``auvlink live`` fills its folder as the mission goes (detections as they are made), so there each
 file is written atomically on its own instead (:func:`atomic_path`).
@@ -164,24 +165,23 @@ def _move_into(src_dir: Path, target: Path, trash: Path) -> None:
 @contextmanager
 def atomic_dir(path: PathLike) -> Iterator[Path]:
     """Yield a temporary folder to fill; it becomes ``path`` when the block ends normally (see the
-    module docstring), and is removed when it raises."""
+    module docstring), and is removed when it raises. For a new ``path`` the temporary folder is
+    its hidden sibling (one rename); for an existing one it is a hidden folder inside it (the parent
+    of ``--out ~`` need not be writable), and the entries move in one by one."""
     target = Path(path)
-    parent = target.absolute().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{target.name}.", suffix=PARTIAL_SUFFIX))
+    exists = target.is_dir()
+    base = target if exists else target.absolute().parent
+    base.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=base, prefix=f".{target.name}.", suffix=PARTIAL_SUFFIX))
     umask = os.umask(0)
     os.umask(umask)
     os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes 0700; an output folder gets the usual mode
     try:
         yield tmp
-        if not os.path.lexists(target):
+        if not exists and not os.path.lexists(target):
             os.rename(tmp, target)
             return
-        if target.is_dir() and not target.is_symlink() and not os.listdir(target):
-            target.rmdir()
-            os.rename(tmp, target)
-            return
-        trash = Path(tempfile.mkdtemp(dir=parent, prefix=f".{target.name}.", suffix=".old"))
+        trash = Path(tempfile.mkdtemp(dir=base, prefix=f".{target.name}.", suffix=".old"))
         try:
             _move_into(tmp, target, trash)
         finally:

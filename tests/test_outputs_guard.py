@@ -272,6 +272,16 @@ def test_atomic_path_and_dir_commit_only_when_whole(tmp_path: Path) -> None:
     with atomic_dir(folder) as tmp:
         (tmp / "x").write_text("1")
     assert (folder / "x").read_text() == "1" and folder.stat().st_mode & 0o777 == 0o777 & ~umask
+    (folder / "objects").mkdir()
+    (folder / "objects" / "stale.ply").write_text("last run")
+    (folder / "keep.txt").write_text("mine")
+    with atomic_dir(folder) as tmp:  # an existing folder (--force): entries move in, objects/ swapped whole
+        assert tmp.parent == folder
+        (tmp / "objects").mkdir()
+        (tmp / "objects" / "new.ply").write_text("this run")
+        (tmp / "x").write_text("2")
+    assert sorted(p.name for p in folder.iterdir()) == ["keep.txt", "objects", "x"]
+    assert [p.name for p in (folder / "objects").iterdir()] == ["new.ply"] and (folder / "x").read_text() == "2"
     no_leftovers(tmp_path)
 
 
