@@ -192,7 +192,8 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
         pool = stack.enter_context(worker_pool(run, n_workers)) if n_workers > 1 else None
         bar = stack.enter_context(tqdm(total=len(run.measurements.sonar.t), unit="frame", desc="auvlink sim",
                                        disable=not progress, file=sys.stderr, dynamic_ncols=True))
-        log = stack.enter_context(MissionLogWriter(out, flush_interval=0.0, fsync=False, software=False))
+        log = stack.enter_context(MissionLogWriter(out, flush_interval=0.0, fsync=False, software=False,
+                                                   keep_failed=False))  # a failed run leaves ``out`` as it was
         log.add_metadata(META_SOFTWARE, {"name": "auvlink", "version": __version__, "generator": "auvlink.sim"})
         log.add_vehicle_config(vehicle_config(run.scene, run.settings))
         log.add_metadata(META_GROUND_TRUTH, meta)
