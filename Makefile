@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/auvlink demo
+	$(BIN)/auvlink demo --force  # make demo regenerates demo-out/ (auvlink demo alone keeps an existing one)
 
 lint: $(STAMP)
 	$(BIN)/ruff check auvlink logs_format recon classify tests benchmarks

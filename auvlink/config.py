@@ -1,22 +1,28 @@
 """The vehicle / mission configuration file read by ``auvlink record``, ``live`` and ``sim --live``.
 
 TOML, one file per vehicle set-up. Units are those a person types (m, deg, s); the loaded objects
-also give radians. Every key is checked: a wrong or missing key raises
-:class:`~auvlink.errors.ConfigError` naming the key and the fix.
+also give radians. The file is validated by the pydantic model :class:`VehicleFile` (the JSON Schema
+is ``docs/schemas/vehicle.schema.json``): a wrong, missing or unknown key raises
+:class:`~auvlink.errors.ConfigError` naming the key, the problem and the allowed keys or range.
+The same model validates the configuration a mission log stores (:func:`config_from_metadata`).
 
 .. code-block:: toml
 
     [vehicle]
     name = "auv1"
 
+    [site]                            # optional: WGS84 position of the NED origin (degrees)
+    latitude = 36.0412
+    longitude = 129.3915
+
     [[devices]]                       # repeatable: one per port
     name = "dvl"                      # channel name in the log
     format = "pd0"                    # a wire-format name (auvlink.formats.names())
     url = "/dev/ttyUSB0?baudrate=115200"
     mounting = { xyz = [0.50, 0.00, 0.20], rpy_deg = [0.0, 0.0, 45.0] }  # lever arm in body FRD (m)
-    options = { }                     # optional, free-form, handed to the device's driver
+    options = { }                     # optional; no format takes options yet (any key is an error)
 
-    [sonar]                           # optional: the forward-scan sonar's geometry
+    [sonar]                           # optional: the forward-scan sonar's geometry (auvlink.sonar.Sonar)
     device = "sonar"                  # optional: which device is the sonar
     tilt_deg = 30.0                   # pitch down of the boresight (positive = looking down)
     spread_deg = 14.0                 # vertical beam spread
@@ -24,96 +30,90 @@ also give radians. Every key is checked: a wrong or missing key raises
     window_length = 10.0              # m
 
     [can]                             # optional
-    dbc = "auvlink_nav.dbc"           # DBC file name (relative to the config or the package data)
-
-    [site]                            # optional: WGS84 position of the local NED origin (the datum)
-    latitude = 36.0412                # deg, + north
-    longitude = 129.3915              # deg, + east
-    height = 0.0                      # optional, m above the WGS84 ellipsoid
+    dbc = "auvlink_nav.dbc"           # DBC file: relative to the config file, absolute, or shipped in auvlink/data
 
 A GNSS receiver is a device with ``format = "nmea"``; its ``mounting.xyz`` is the antenna's lever arm.
-Without ``[site]`` the first accepted GNSS fix becomes the datum (see docs/GEO.md).
+``[site]`` is the WGS84 datum of the local NED frame; without one the first accepted GNSS fix becomes
+the datum (docs/GEO.md).
 """
 
 from __future__ import annotations
 
-import math
-import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
+from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+from pydantic import Field
+from pydantic.dataclasses import dataclass
 
 from auvlink import formats
 from auvlink.errors import ConfigError
-from auvlink.geodesy import Datum, parse_site
+from auvlink.sonar import Mounting, Sonar
+from auvlink.transports.urls import check_url
+from auvlink.validation import CONFIG, Site, Text, loads_toml, plain, read_toml, validate
 
-_TOP_KEYS = {"vehicle", "devices", "sonar", "can", "site"}
-_VEHICLE_KEYS = {"name"}
-_DEVICE_KEYS = {"name", "format", "url", "mounting", "options"}
-_MOUNTING_KEYS = {"xyz", "rpy_deg"}
-_SONAR_KEYS = {"device", "tilt_deg", "spread_deg", "window_start", "window_length"}
-_CAN_KEYS = {"dbc"}
+__all__ = ["CanConfig", "DeviceConfig", "Mounting", "Site", "SonarConfig", "VehicleConfig", "VehicleSonar",
+           "config_from_metadata", "load_config", "loads_config", "parse_config"]
 
-
-@dataclass(frozen=True)
-class Mounting:
-    """Where a device sits on the vehicle: lever arm in the body frame (FRD, m) and its rotation."""
-
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  # roll, pitch, yaw of the device in B
-
-    @property
-    def rpy(self) -> tuple[float, float, float]:
-        """Roll, pitch, yaw in radians."""
-        r, p, y = (math.radians(v) for v in self.rpy_deg)
-        return (r, p, y)
+#: options each wire format reads from ``devices[i].options`` (none reads any yet)
+DEVICE_OPTIONS: dict[str, frozenset[str]] = {}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=CONFIG)
 class DeviceConfig:
     """One port: a device name, its wire format, the transport URL and its mounting."""
 
-    name: str
-    format: str
-    url: str
+    name: Text
+    format: Text
+    url: Text
     mounting: Mounting = field(default_factory=Mounting)
     options: Mapping[str, Any] = field(default_factory=dict)
 
 
-@dataclass(frozen=True)
-class SonarConfig:
-    """Geometry of the forward-scan sonar (degrees and metres as configured)."""
+@dataclass(frozen=True, kw_only=True, config=CONFIG)
+class VehicleSonar(Sonar):
+    """``[sonar]`` of the vehicle configuration: the shared :class:`~auvlink.sonar.Sonar` and its device."""
 
-    tilt_deg: float
-    spread_deg: float
-    window_start: float
-    window_length: float
-    device: str | None = None
-
-    @property
-    def tilt(self) -> float:
-        return math.radians(self.tilt_deg)
-
-    @property
-    def spread(self) -> float:
-        return math.radians(self.spread_deg)
+    device: Text | None = None
 
 
-@dataclass(frozen=True)
+SonarConfig = VehicleSonar  # the name this module used before the sonar model moved to auvlink.sonar
+
+
+@dataclass(frozen=True, config=CONFIG)
 class CanConfig:
-    dbc: str | None = None
+    """``[can]``: the DBC file describing the CAN messages."""
+
+    dbc: Text | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=CONFIG)
+class VehicleTable:
+    name: Text = "vehicle"
+
+
+@dataclass(frozen=True, kw_only=True, config=CONFIG)
+class VehicleFile:
+    """A vehicle configuration file as written (the model its JSON Schema is generated from)."""
+
+    vehicle: VehicleTable = field(default_factory=VehicleTable)
+    site: Site | None = None
+    devices: Annotated[list[DeviceConfig], Field(min_length=1, max_length=64)]
+    sonar: VehicleSonar | None = None
+    can: CanConfig | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
 class VehicleConfig:
-    """A whole configuration file."""
+    """A whole configuration file, validated."""
 
     name: str
     devices: tuple[DeviceConfig, ...]
-    sonar: SonarConfig | None = None
+    sonar: VehicleSonar | None = None
     can: CanConfig | None = None
-    site: Datum | None = None
+    site: Site | None = None
     source: str = "<string>"
     text: str = ""
 
@@ -127,150 +127,98 @@ class VehicleConfig:
         """JSON-ready form (what the mission log stores as ``vehicle_config``)."""
         out: dict[str, Any] = {
             "vehicle": {"name": self.name},
-            "devices": [
-                {"name": d.name, "format": d.format, "url": d.url,
-                 "mounting": {"xyz": list(d.mounting.xyz), "rpy_deg": list(d.mounting.rpy_deg)},
-                 "options": dict(d.options)}
-                for d in self.devices
-            ],
+            "devices": [plain(d) for d in self.devices],
         }
         if self.sonar is not None:
-            out["sonar"] = {"tilt_deg": self.sonar.tilt_deg, "spread_deg": self.sonar.spread_deg,
-                            "window_start": self.sonar.window_start,
-                            "window_length": self.sonar.window_length, "device": self.sonar.device}
+            out["sonar"] = plain(self.sonar)
         if self.can is not None:
-            out["can"] = {"dbc": self.can.dbc}
+            out["can"] = plain(self.can)
         if self.site is not None:
-            out["site"] = self.site.to_dict()
+            out["site"] = plain(self.site)
         return out
 
 
-# -- validation helpers ---------------------------------------------------------------------
-def _check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
-    for key in table:
-        if key not in allowed:
-            raise ConfigError(f"{where}{key}", "unknown key", f"allowed here: {', '.join(sorted(allowed))}")
-
-
-def _table(data: Mapping[str, Any], key: str, where: str = "") -> Mapping[str, Any]:
-    value = data[key]
-    if not isinstance(value, Mapping):
-        raise ConfigError(f"{where}{key}", f"must be a table, got {type(value).__name__}",
-                          f"write [{where}{key}] or {key} = {{ ... }}")
-    return value
-
-
-def _str(data: Mapping[str, Any], key: str, where: str, required: bool = True) -> str | None:
-    if key not in data:
-        if required:
-            raise ConfigError(f"{where}{key}", "missing", f"add {key} = \"...\"")
-        return None
-    value = data[key]
-    if not isinstance(value, str) or not value.strip():
-        raise ConfigError(f"{where}{key}", f"must be a non-empty string, got {value!r}", "quote it")
-    return value
-
-
-def _float(data: Mapping[str, Any], key: str, where: str, lo: float | None = None,
-           hi: float | None = None) -> float:
-    if key not in data:
-        raise ConfigError(f"{where}{key}", "missing", f"add {key} = <number>")
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ConfigError(f"{where}{key}", f"must be a finite number, got {value!r}", "write e.g. 1.0")
-    if (lo is not None and value < lo) or (hi is not None and value > hi):
-        raise ConfigError(f"{where}{key}", f"{value} is out of range", f"use a value in [{lo}, {hi}]")
-    return float(value)
-
-
-def _vec3(data: Mapping[str, Any], key: str, where: str) -> tuple[float, float, float]:
-    value = data.get(key, [0.0, 0.0, 0.0])
-    ok = isinstance(value, list) and len(value) == 3 and all(
-        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-    if not ok:
-        raise ConfigError(f"{where}{key}", f"must be a list of 3 numbers, got {value!r}",
-                          f"write {key} = [x, y, z]")
-    return (float(value[0]), float(value[1]), float(value[2]))
-
-
-def _device(raw: Any, i: int, format_names: list[str]) -> DeviceConfig:
-    where = f"devices[{i}]."
-    if not isinstance(raw, Mapping):
-        raise ConfigError(f"devices[{i}]", "must be a table", "write [[devices]] blocks")
-    _check_keys(raw, _DEVICE_KEYS, where)
-    name = _str(raw, "name", where)
-    fmt = _str(raw, "format", where)
-    url = _str(raw, "url", where)
-    assert name is not None and fmt is not None and url is not None
-    if fmt not in format_names:
-        raise ConfigError(f"{where}format", f"unknown wire format {fmt!r}",
-                          f"one of {', '.join(format_names)}")
-    mounting = Mounting()
-    if "mounting" in raw:
-        m = _table(raw, "mounting", where)
-        _check_keys(m, _MOUNTING_KEYS, f"{where}mounting.")
-        mounting = Mounting(_vec3(m, "xyz", f"{where}mounting."), _vec3(m, "rpy_deg", f"{where}mounting."))
-    options: Mapping[str, Any] = dict(_table(raw, "options", where)) if "options" in raw else {}
-    return DeviceConfig(name, fmt, url, mounting, options)
-
-
-def parse_config(data: Mapping[str, Any], source: str = "<string>", text: str = "") -> VehicleConfig:
-    """Validate a parsed TOML document and build the :class:`VehicleConfig`."""
-    _check_keys(data, _TOP_KEYS, "")
-    name = "vehicle"
-    if "vehicle" in data:
-        vehicle = _table(data, "vehicle")
-        _check_keys(vehicle, _VEHICLE_KEYS, "vehicle.")
-        name = _str(vehicle, "name", "vehicle.", required=False) or name
-    raw_devices = data.get("devices", [])
-    if not isinstance(raw_devices, list) or not raw_devices:
-        raise ConfigError("devices", "at least one [[devices]] block is needed",
-                          "add [[devices]] with name, format and url")
-    format_names = formats.names()
-    devices = tuple(_device(raw, i, format_names) for i, raw in enumerate(raw_devices))
+# -- checks the model cannot make alone ----------------------------------------------------------
+def _check_devices(devices: list[DeviceConfig]) -> None:
+    names = formats.names()
     seen: set[str] = set()
     for i, dev in enumerate(devices):
+        where = f"devices[{i}]."
+        if dev.format not in names:
+            raise ConfigError(f"{where}format", f"unknown wire format {dev.format!r}", f"one of {', '.join(names)}")
         if dev.name in seen:
-            raise ConfigError(f"devices[{i}].name", f"duplicate device name {dev.name!r}",
-                              "names must be unique")
+            raise ConfigError(f"{where}name", f"duplicate device name {dev.name!r}", "names must be unique")
         seen.add(dev.name)
-    sonar = None
-    if "sonar" in data:
-        s = _table(data, "sonar")
-        _check_keys(s, _SONAR_KEYS, "sonar.")
-        device = _str(s, "device", "sonar.", required=False)
-        if device is not None and device not in seen:
-            raise ConfigError("sonar.device", f"no device named {device!r}", f"one of {sorted(seen)}")
-        sonar = SonarConfig(
-            tilt_deg=_float(s, "tilt_deg", "sonar.", -90.0, 90.0),
-            spread_deg=_float(s, "spread_deg", "sonar.", 0.0, 90.0),
-            window_start=_float(s, "window_start", "sonar.", 0.0),
-            window_length=_float(s, "window_length", "sonar.", 0.0),
-            device=device,
-        )
-    can = None
-    if "can" in data:
-        c = _table(data, "can")
-        _check_keys(c, _CAN_KEYS, "can.")
-        can = CanConfig(dbc=_str(c, "dbc", "can.", required=False))
-    site = parse_site(dict(_table(data, "site")), "site.") if "site" in data else None
-    return VehicleConfig(name=name, devices=devices, sonar=sonar, can=can, site=site, source=source, text=text)
+        allowed = DEVICE_OPTIONS.get(dev.format, frozenset())
+        for key in dev.options:
+            if key not in allowed:
+                raise ConfigError(f"{where}options.{key}", f"unknown option of format {dev.format!r}",
+                                  f"allowed here: {', '.join(sorted(allowed)) or 'none (remove options)'}")
+        try:
+            check_url(dev.url)
+        except ConfigError as exc:
+            raise ConfigError(f"{where}url", exc.problem, exc.fix) from exc
+
+
+def resolve_dbc(dbc: str, source: str) -> Path:
+    """The DBC file ``dbc`` names: absolute, relative to the config file, or shipped in auvlink/data."""
+    p = Path(dbc)
+    base = Path(source).parent if source and Path(source).is_file() else Path.cwd()
+    tried = [p] if p.is_absolute() else [base / p]
+    if not p.is_absolute() and len(p.parts) == 1:
+        shipped = resources.files("auvlink").joinpath("data", dbc)
+        if shipped.is_file():
+            return Path(str(shipped))
+    for cand in tried:
+        if cand.is_file():
+            return cand
+    raise ConfigError("can.dbc", f"DBC file not found: {tried[0]}",
+                      "give a path relative to the config file, an absolute path, or auvlink_nav.dbc (shipped)")
+
+
+def parse_config(data: Mapping[str, Any], source: str = "<string>", text: str = "", *,
+                 check_files: bool = True) -> VehicleConfig:
+    """Validate a parsed TOML document and build the :class:`VehicleConfig`.
+
+    ``check_files`` False skips checks against this machine's files (a log's stored DBC path).
+    """
+    if data.get("devices") is None or data.get("devices") == []:
+        raise ConfigError("devices", "at least one [[devices]] block is needed",
+                          "add [[devices]] with name, format and url")
+    doc = validate(VehicleFile, data)
+    _check_devices(doc.devices)
+    if doc.sonar is not None and doc.sonar.device is not None and doc.sonar.device not in {
+            d.name for d in doc.devices}:
+        raise ConfigError("sonar.device", f"no device named {doc.sonar.device!r}",
+                          f"one of {sorted(d.name for d in doc.devices)}")
+    if check_files and doc.can is not None and doc.can.dbc is not None:
+        resolve_dbc(doc.can.dbc, source)
+    return VehicleConfig(name=doc.vehicle.name, devices=tuple(doc.devices), sonar=doc.sonar, can=doc.can,
+                         site=doc.site, source=source, text=text)
 
 
 def loads_config(text: str, source: str = "<string>") -> VehicleConfig:
     """Parse a configuration from TOML text."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(source, f"not valid TOML: {exc}", "fix the syntax at the position given") from exc
-    return parse_config(data, source=source, text=text)
+    return parse_config(loads_toml(text, source), source=source, text=text)
 
 
 def load_config(path: str | Path) -> VehicleConfig:
     """Read and validate a configuration file."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(str(p), f"cannot read: {exc.strerror or exc}", "check the path") from exc
-    return loads_config(text, source=str(p))
+    data, text = read_toml(path, str(path))
+    return parse_config(data, source=str(path), text=text)
+
+
+def config_from_metadata(meta: Mapping[str, Any]) -> VehicleConfig:
+    """The vehicle configuration a mission log stores (``vehicle_config`` metadata), validated.
+
+    Raises :class:`ConfigError` naming the bad key; files named there (the DBC) are not looked up.
+    """
+    vc = meta.get("vehicle_config")
+    if vc is None:
+        raise ConfigError("vehicle_config", "missing from the log's metadata", "give --config CONFIG.toml")
+    cfg = vc.get("config", vc) if isinstance(vc, Mapping) else vc
+    if not isinstance(cfg, Mapping):
+        raise ConfigError("vehicle_config", f"expected a table, got {type(cfg).__name__}", "give --config")
+    text = vc.get("toml", "") if isinstance(vc, Mapping) else ""
+    return parse_config(cfg, source="<log metadata>", text=text if isinstance(text, str) else "",
+                        check_files=False)

@@ -1,8 +1,8 @@
 """The site datum: local NED (world frame W) <-> WGS84 latitude, longitude, ellipsoidal height, by PROJ.
 
-W is the local tangent frame at the datum (``[site] latitude``, ``longitude``, WGS84 degrees, and
-``height``, m above the WGS84 ellipsoid, default 0): x north, y east, z down, metres, float64,
-origin on the surface at the datum. The conversion is PROJ's (pyproj) rigorous chain, nothing
+W is the local tangent frame at the datum (``[site] latitude``, ``longitude``, WGS84 degrees, validated
+by :class:`auvlink.validation.Site`; ``height`` above the WGS84 ellipsoid, default 0): x north, y east,
+z down, metres, float64, origin on the surface at the datum. The conversion is PROJ's (pyproj) rigorous chain, nothing
 written here: geodetic -> ECEF (``+proj=cart``) -> topocentric ENU at the datum
 (``+proj=topocentric``), then NED = (N, E, -U). It is exact (round trip below 1e-6 m at 50 km);
 what it is not is a map projection: W is flat, so a point on the sea surface s metres away lies
@@ -82,32 +82,17 @@ class Datum:
         return {"latitude": self.latitude, "longitude": self.longitude, "height": self.height}
 
     @classmethod
+    def of_site(cls, site: Any) -> Datum | None:
+        """The datum of a validated ``[site]`` table (``latitude``, ``longitude``), None when absent or partial."""
+        lat, lon = getattr(site, "latitude", None), getattr(site, "longitude", None)
+        return None if lat is None or lon is None else cls(float(lat), float(lon))
+
+    @classmethod
     def from_dict(cls, d: Any) -> Datum | None:
         """From ``{"latitude": .., "longitude": .., "height": ..}`` (a log's metadata); None when absent."""
         if not isinstance(d, dict) or d.get("latitude") is None or d.get("longitude") is None:
             return None
         return cls(float(d["latitude"]), float(d["longitude"]), float(d.get("height") or 0.0))
-
-
-def parse_site(table: Any, where: str = "site.") -> Datum:
-    """The ``[site]`` table of a scene or vehicle configuration: ``latitude``, ``longitude`` (WGS84 deg),
-    optional ``height`` (m above the ellipsoid); an unknown key or a bad value is a :class:`ConfigError`."""
-    if not isinstance(table, dict):
-        raise ConfigError(where.rstrip("."), "must be a table", "write [site] with latitude and longitude")
-    for key in table:
-        if key not in ("latitude", "longitude", "height"):
-            raise ConfigError(f"{where}{key}", "unknown key", "allowed here: height, latitude, longitude")
-    vals: dict[str, float] = {}
-    for key in ("latitude", "longitude", "height"):
-        if key not in table:
-            if key == "height":
-                continue
-            raise ConfigError(f"{where}{key}", "missing", f"add {key} = <WGS84 degrees>")
-        v = table[key]
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise ConfigError(f"{where}{key}", f"must be a finite number, got {v!r}", "write e.g. 36.0412")
-        vals[key] = float(v)
-    return Datum(vals["latitude"], vals["longitude"], vals.get("height", 0.0))
 
 
 def horizontal_distance_m(lat1: ArrayLike, lon1: ArrayLike, lat2: ArrayLike, lon2: ArrayLike) -> F64:

@@ -90,7 +90,7 @@ def cached_log(cache: Path, minutes: float) -> tuple[Path, dict[str, Any] | None
     scene = cache / f"survey-{minutes:g}min-{key}.toml"
     scene.write_text(text)
     partial = log.with_suffix(".partial.mcap")  # renamed when whole: a killed run is never reused
-    sim = run_child([*_auvlink(), "sim", "--scene", str(scene), "--out", str(partial), "--quiet"],
+    sim = run_child([*_auvlink(), "sim", "--scene", str(scene), "--out", str(partial), "--quiet", "--force"],
                     cache / "sim.log")
     if sim["rc"] != 0 or not partial.is_file():
         raise RuntimeError(f"auvlink sim failed (rc {sim['rc']}): {_tail(cache / 'sim.log')}")

@@ -8,16 +8,71 @@ reduced-budget run, e.g. ``epochs``, ``heading_step_deg``).
 
 from __future__ import annotations
 
-import tomllib
+import dataclasses
+import typing
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+from pydantic import ConfigDict, Field, create_model
 
 from auvlink.errors import ConfigError
+from auvlink.validation import CONFIG, Boolean, Integer, Number, Text, read_toml, validate
+from classify.augment import AugmentConfig
 from classify.synthesis import SynthesisSettings
 from classify.train import TrainConfig
 
 DEFAULT_CONFIG = Path(__file__).resolve().parent / "data" / "train_default.toml"
+
+#: bounds of the training settings (ge, le) or ("gt", lo, le) where a size could exhaust memory
+_BOUNDS: dict[str, tuple[Any, ...]] = {
+    "epochs": (1, 100_000), "batch_size": (1, 65_536), "patience": (0, 100_000), "threads": (1, 1024),
+    "n_points": (1, 1_000_000), "candidates": (1, 10_000_000), "copies": (1, 10_000), "rays_per_beam": (1, 1024),
+    "min_run": (1, 10_000), "seed": (0, 2**63 - 1), "val_fraction": (0.0, 0.99), "dropout": (0.0, 0.99),
+    "lr": ("gt", 0.0, 10.0), "width": ("gt", 0.0, 64.0), "spread_deg": ("gt", 0.0, 90.0),
+    "heading_step_deg": ("gt", 0.0, 360.0), "step_m": ("gt", 0.0, 100.0), "bin_m": ("gt", 0.0, 100.0),
+    "cut_prob": (0.0, 1.0), "dropout_max": (0.0, 1.0),
+}
+_LEAF = {float: Number, int: Integer, bool: Boolean, str: Text}
+
+
+def _leaf(tp: Any, name: str) -> Any:
+    if typing.get_origin(tp) is tuple:
+        args = typing.get_args(tp)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return Annotated[tuple[_leaf(args[0], ""), ...], Field(max_length=100_000)]  # type: ignore[misc]
+        return tuple.__class_getitem__(tuple(_leaf(a, "") for a in args))
+    base = _LEAF.get(tp, tp)
+    bounds = _BOUNDS.get(name)
+    if bounds is None:
+        return base
+    if bounds[0] == "gt":
+        return Annotated[base, Field(gt=bounds[1], le=bounds[2])]
+    return Annotated[base, Field(ge=bounds[0], le=bounds[1])]
+
+
+def table_model(cls: type, name: str, extra: dict[str, Any] | None = None) -> Any:
+    """A pydantic model of the TOML table that fills the dataclass ``cls`` (every key optional)."""
+    hints = typing.get_type_hints(cls)
+    fields: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if not f.init or f.name == "augment":
+            continue
+        fields[f.name] = (_leaf(hints[f.name], f.name) | None, None)
+    fields.update(extra or {})
+    return create_model(name, __config__=ConfigDict(**CONFIG), **fields)
+
+
+AugmentTable = table_model(AugmentConfig, "AugmentTable")
+SynthesisTable = table_model(SynthesisSettings, "SynthesisTable",
+                             {"heading_step_deg": (_leaf(float, "heading_step_deg") | None, None)})
+TrainTable = table_model(TrainConfig, "TrainTable", {"augment": (AugmentTable | None, None)})
+QuickTable = create_model("QuickTable", __config__=ConfigDict(**CONFIG),  # type: ignore[call-overload]
+                          **{k: (v.annotation, None) for k, v in {**SynthesisTable.model_fields,
+                                                                  **TrainTable.model_fields}.items()
+                             if k != "augment"})
+TrainFile = create_model("TrainFile", __config__=ConfigDict(**CONFIG), synthesis=(SynthesisTable | None, None),
+                         train=(TrainTable | None, None), quick=(QuickTable | None, None))
 
 
 @dataclass(frozen=True)
@@ -31,30 +86,20 @@ def _synthesis(table: dict[str, Any]) -> SynthesisSettings:
     t = dict(table)
     step = t.pop("heading_step_deg", None)
     if step is not None:
-        if not 0 < float(step) <= 360:
-            raise ConfigError("synthesis.heading_step_deg", f"{step} not in (0, 360]")
         t["headings_deg"] = [float(h) for h in range(0, 360, int(step))] if float(step).is_integer() else \
             [i * float(step) for i in range(int(360 // float(step)))]
-    unknown = set(t) - set(SynthesisSettings.__dataclass_fields__)
-    if unknown:
-        raise ConfigError(f"synthesis.{sorted(unknown)[0]}", "unknown key")
     return SynthesisSettings.from_dict(t)
 
 
-def _train(table: dict[str, Any]) -> TrainConfig:
-    unknown = set(table) - set(TrainConfig.__dataclass_fields__)
-    if unknown:
-        raise ConfigError(f"train.{sorted(unknown)[0]}", "unknown key")
-    return TrainConfig.from_dict(table)
-
-
 def load_train_settings(path: Path | None = None, quick: bool = False) -> TrainSettings:
-    """Settings from ``path`` (the shipped defaults when None); ``quick`` applies ``[quick]``."""
+    """Settings from ``path`` (the shipped defaults when None); ``quick`` applies ``[quick]``.
+
+    The file is validated by :data:`TrainFile` (``docs/schemas/train.schema.json``); the dataclasses
+    are then built from the values as written (so the shipped model's cache keys stay the same).
+    """
     path = Path(path) if path is not None else DEFAULT_CONFIG
-    try:
-        doc = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ConfigError(str(path), f"cannot read training settings: {exc}") from exc
+    doc, _ = read_toml(path, str(path))
+    validate(TrainFile, doc)
     syn_t, train_t = dict(doc.get("synthesis", {})), dict(doc.get("train", {}))
     if quick:
         for k, v in doc.get("quick", {}).items():
@@ -62,7 +107,10 @@ def load_train_settings(path: Path | None = None, quick: bool = False) -> TrainS
                 syn_t[k] = v
             else:
                 train_t[k] = v
-    return TrainSettings(_synthesis(syn_t), _train(train_t), str(path))
+    try:
+        return TrainSettings(_synthesis(syn_t), TrainConfig.from_dict(train_t), str(path))
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(str(path), f"bad training settings: {exc}", "check the values") from exc
 
 
 def with_overrides(s: TrainSettings, epochs: int | None = None, seed: int | None = None,

@@ -43,7 +43,8 @@ def is_can_log(path: str | Path) -> bool:
 
 
 def _writer(out: str | Path, compression: str) -> MissionLogWriter:
-    return MissionLogWriter(out, compression=compression, flush_interval=0, fsync=False)
+    # derived from a file that is still there: a failed import leaves ``out`` as it was (keep_failed=False)
+    return MissionLogWriter(out, compression=compression, flush_interval=0, fsync=False, keep_failed=False)
 
 
 def import_can_log(
@@ -70,7 +71,14 @@ def import_can_log(
                 continue
             log(device, "can", max(0, round(msg.timestamp * 1e9)), raw)
             result.frames += 1
+        _no_frames(src, result)
     return result
+
+
+def _no_frames(src: Path, result: ImportResult) -> None:
+    """An import that found nothing writes nothing (inside the writer's block: ``out`` keeps what it had)."""
+    if not result.frames:
+        raise LogError(f"{src}: no whole frame found (is the format right?)")
 
 
 def import_serial_capture(
@@ -130,5 +138,6 @@ def import_serial_capture(
             if not block:
                 break
         result.framer = framer.stats.as_dict()
+        _no_frames(src, result)
         log.add_metadata("import", {**meta, "framer": result.framer})
     return result

@@ -110,16 +110,20 @@ class Mounting:
 
 
 def rdi_instrument_mounting(lever_arm: ArrayLike = (0.0, 0.0, 0.0), heading_misalignment: float = 0.0,
-                            up_looking: bool = False) -> Mounting:
+                            up_looking: bool = False, pitch: float = 0.0, roll: float = 0.0) -> Mounting:
     """Mounting of an RDI DVL's instrument frame (X, Y, Z) in FRD.
 
     Down-looking, beam 3 forward: instrument X = starboard, Y = forward, Z = up (the ship axes).
     ``heading_misalignment`` (rad, clockwise +) is RDI's EA; an up-looking unit is rolled 180 deg.
+    ``pitch`` and ``roll`` (rad) tilt the unit in B: R = Rz(yaw) Ry(pitch) Rx(roll) R_ship.
     """
     rot = Rotation.from_matrix(RDI_SWAP)
     if up_looking:
         rot = rot * Rotation.from_euler("y", np.pi)  # instrument Y (forward) kept, X and Z reversed
-    rot = Rotation.from_euler("z", heading_misalignment) * rot
+    if pitch or roll:
+        rot = attitude(heading_misalignment, pitch, roll) * rot
+    else:
+        rot = Rotation.from_euler("z", heading_misalignment) * rot
     return Mounting.from_rotation(rot, lever_arm)
 
 

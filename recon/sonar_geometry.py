@@ -30,8 +30,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from auvlink.sonar import DEFAULT_SONAR, Sonar
+from auvlink.sonar import Mounting as DeviceMounting
 from recon.errors import GeometryError
-from recon.frames import Mounting
+from recon.frames import Mounting, attitude
 
 F64 = NDArray[np.float64]
 GeometryMode = Literal["exact", "paper"]
@@ -51,13 +53,15 @@ class SonarGeometry:
 
     n_bins: int = 512
     n_beams: int = 96
-    window_start: float = 1.0
-    window_length: float = 10.0
-    tilt: float = float(np.deg2rad(30.0))
-    spread: float = float(np.deg2rad(14.0))
+    window_start: float = DEFAULT_SONAR.window_start
+    window_length: float = DEFAULT_SONAR.window_length
+    tilt: float = DEFAULT_SONAR.tilt
+    spread: float = DEFAULT_SONAR.spread
     fov: float = float(np.deg2rad(29.0))
     lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
     azimuth_table: tuple[float, ...] | None = None
+    #: roll, pitch, yaw (rad) of the sonar's mounting in B, applied before the tilt: R_BS = R(rpy) Ry(-tilt)
+    mount_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     _az: F64 = field(init=False, repr=False, compare=False)
     _mount: Mounting = field(init=False, repr=False, compare=False)
 
@@ -76,7 +80,25 @@ class SonarGeometry:
             az = np.linspace(-self.fov / 2, self.fov / 2, self.n_beams)
         az.setflags(write=False)
         object.__setattr__(self, "_az", az)
-        object.__setattr__(self, "_mount", Mounting.sonar(self.tilt, self.lever_arm))
+        mount = Mounting.sonar(self.tilt, self.lever_arm)
+        if any(self.mount_rpy):
+            roll, pitch, yaw = self.mount_rpy
+            mount = Mounting.from_rotation(attitude(yaw, pitch, roll) * mount.rotation, self.lever_arm)
+        object.__setattr__(self, "_mount", mount)
+
+    @classmethod
+    def of(cls, sonar: Sonar, mounting: DeviceMounting | None = None, *, azimuths: ArrayLike | None = None,
+           window: tuple[float, float] | None = None) -> SonarGeometry:
+        """The geometry of the shared sonar description and its device mounting (lever arm and rpy).
+
+        ``azimuths`` (rad) is the device's beam table and ``window`` (start, length, m) the frames' own
+        range window; both override the description where the frames carry them.
+        """
+        m = mounting or DeviceMounting()
+        start, length = window if window is not None else (sonar.window_start, sonar.window_length)
+        table = None if azimuths is None else tuple(float(a) for a in np.asarray(azimuths, dtype=np.float64))
+        return cls(window_start=start, window_length=length, tilt=sonar.tilt, spread=sonar.spread,
+                   lever_arm=m.xyz, azimuth_table=table, mount_rpy=m.rpy)
 
     @classmethod
     def from_degrees(cls, tilt_deg: float = 30.0, spread_deg: float = 14.0, **kw: object) -> SonarGeometry:

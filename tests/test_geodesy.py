@@ -8,7 +8,7 @@ import pymap3d
 import pytest
 
 from auvlink.errors import ConfigError
-from auvlink.geodesy import JANGIL_BAY, Datum, horizontal_distance_m, parse_site
+from auvlink.geodesy import JANGIL_BAY, Datum, horizontal_distance_m
 
 
 def points(n: int, radius: float, seed: int = 0) -> np.ndarray:
@@ -53,15 +53,14 @@ def test_surface_distance_matches_the_geodesic() -> None:
     assert lat1[0] > site.latitude and abs(lon1[0] - site.longitude) < 1e-12
 
 
-def test_parse_site_and_errors() -> None:
-    assert parse_site({"latitude": 36.0412, "longitude": 129.3915}) == Datum(36.0412, 129.3915, 0.0)
-    with pytest.raises(ConfigError, match=r"site\.lat"):
-        parse_site({"lat": 1.0, "longitude": 2.0})
-    with pytest.raises(ConfigError, match=r"site\.longitude"):
-        parse_site({"latitude": 1.0})
+def test_datum_of_site_and_errors() -> None:
+    from auvlink.validation import Site
+
+    assert Datum.of_site(Site(36.0412, 129.3915)) == Datum(36.0412, 129.3915, 0.0)
+    assert Datum.of_site(Site(36.0, None)) is None and Datum.of_site(None) is None
     with pytest.raises(ConfigError, match=r"site\.latitude"):
-        parse_site({"latitude": 91.0, "longitude": 0.0})
+        Datum(91.0, 0.0)
     with pytest.raises(ConfigError, match=r"site\.longitude"):
-        parse_site({"latitude": 1.0, "longitude": "east"})
+        Datum(1.0, 200.0)
     assert Datum.from_dict({"latitude": 1.0, "longitude": 2.0}) == Datum(1.0, 2.0)
     assert Datum.from_dict(None) is None

@@ -244,7 +244,6 @@ mounting = { xyz = [0.5, 0.0, 0.2], rpy_deg = [0.0, 0.0, 45.0] }
 name = "fog"
 format = "dsp1760"
 url = "socket://127.0.0.1:5001"
-options = { mode = "rate" }
 [sonar]
 device = "dvl"
 tilt_deg = 30.0
@@ -260,7 +259,7 @@ def test_config_loads() -> None:
     cfg = loads_config(GOOD)
     assert cfg.name == "auv1" and [d.name for d in cfg.devices] == ["dvl", "fog"]
     assert cfg.device("dvl").mounting.rpy[2] == pytest.approx(math.pi / 4)
-    assert cfg.device("fog").options == {"mode": "rate"}
+    assert cfg.device("fog").options == {}  # no format reads options: any key is an error (test_config_model)
     assert cfg.sonar is not None and cfg.sonar.tilt == pytest.approx(math.radians(30))
     assert cfg.can is not None and cfg.can.dbc == "auvlink_nav.dbc"
     assert cfg.to_dict()["devices"][0]["mounting"]["xyz"] == [0.5, 0.0, 0.2]

@@ -74,12 +74,57 @@ def test_minimal_scene_defaults() -> None:
     assert scene.sonar.window_end == 11.0
 
 
-def test_extra_keys_are_ignored() -> None:
+@pytest.mark.parametrize("path,key,allowed", [
+    (("seabed", "slope_degree"), "seabed.slope_degree", "depth, roughness, slope_azimuth_deg, slope_deg"),
+    (("bogus",), "bogus", "seabed, seed"),
+    (("sonar", "rays_per_bean"), "sonar.rays_per_bean", "rays_per_beam"),
+    (("objects", 0, "colour"), "objects[0].colour", "class, heading_deg, position"),
+    (("site", "lat"), "site.lat", "latitude, longitude"),
+])
+def test_unknown_keys_are_rejected(path: tuple[Any, ...], key: str, allowed: str) -> None:
+    """A typo (``slope_degree``, ``[bogus]``, ``rays_per_bean``) would silently run another mission."""
     doc = _doc()
-    doc["notes"] = "anything"
-    doc["seabed"]["sediment"] = "sand"
-    doc["objects"][0]["colour"] = "red"
-    assert parse_scene(doc).objects[0].class_name == "box"
+    doc.setdefault("site", {})
+    table: Any = doc
+    for part in path[:-1]:
+        table = table[part]
+    table[path[-1]] = {} if path == ("bogus",) else 1.0
+    with pytest.raises(ConfigError) as err:
+        parse_scene(doc)
+    assert err.value.key == key and err.value.problem == "unknown key"
+    assert "allowed here:" in err.value.fix and allowed in err.value.fix
+
+
+@pytest.mark.parametrize("path,value,limit", [
+    (("survey", "lines"), 10**9, "1000"), (("survey", "line_length"), 1e9, "20000.0"),
+    (("survey", "line_spacing"), 1e9, "1000.0"), (("sonar", "rays_per_beam"), 10**6, "256"),
+])
+def test_sizes_are_bounded(path: tuple[str, str], value: Any, limit: str) -> None:
+    """Sizes that would allocate tens of GiB are refused with the limit named."""
+    doc = _doc()
+    doc[path[0]][path[1]] = value
+    with pytest.raises(ConfigError) as err:
+        parse_scene(doc)
+    assert err.value.key == ".".join(path) and "out of range" in err.value.problem and limit in err.value.fix
+
+
+def test_mission_duration_is_bounded() -> None:
+    doc = _doc()
+    doc["survey"].update(lines=1000, line_length=20_000.0, speed=0.5)
+    with pytest.raises(ConfigError) as err:
+        parse_scene(doc)
+    assert err.value.key == "survey" and "12 h" in err.value.problem
+
+
+def test_site_is_read_and_checked() -> None:
+    doc = _doc()
+    doc["site"] = {"latitude": 36.0412, "longitude": 129.3915}
+    site = parse_scene(doc).site
+    assert site is not None and (site.latitude, site.longitude) == (36.0412, 129.3915)
+    doc["site"]["longitude"] = 190.0
+    with pytest.raises(ConfigError) as err:
+        parse_scene(doc)
+    assert err.value.key == "site.longitude" and "[-180.0, 180.0]" in err.value.fix
 
 
 def test_load_from_file(tmp_path: Path) -> None:

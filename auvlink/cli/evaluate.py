@@ -12,6 +12,9 @@ class, seed 11; with ``--quick`` 3 headings x 1 tilt x 2 altitudes), cached unde
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
 simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
 and write ``DIR/baseline2d.json`` and ``DIR/baseline2d_confusion.png`` beside the PointNet figures.
+
+DIR must be new or empty unless ``--force`` (checked before any work); each file is written under a
+temporary name and renamed when whole.
 """
 
 from __future__ import annotations
@@ -37,9 +40,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="evaluate on clouds recon reconstructs from simulated passes (not synthesized clouds)")
     p.add_argument("--baseline2d", action="store_true",
                    help="also train and evaluate the single-image 2D CNN baseline (a few minutes)")
+    p.add_argument("--force", action="store_true", help="write into a non-empty DIR (files of the same names replaced)")
 
 
 def run(args: argparse.Namespace) -> int:
+    from auvlink.atomic import check_output_dir, check_output_file, write_text
+
+    check_output_dir(args.out, force=args.force)  # before any work (and before torch loads)
+    if args.model is not None:
+        for name in ("eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png"):
+            check_output_file(args.out / name, force=True, inputs=[args.model], what="result")
     from auvlink.jsonutil import to_jsonable
     from classify.dataset import default_cache_dir
     from classify.evaluate import plot_confusion
@@ -64,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
         title = f"held-out synthesized clouds (n={report.n})"
     args.out.mkdir(parents=True, exist_ok=True)
     result = {"model": str(args.model or "default"), "n_points": clf.n_points, **extra, **report.to_dict()}
-    (args.out / "eval.json").write_text(json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
+    write_text(args.out / "eval.json", json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
     png = plot_confusion(report, args.out / "confusion.png", title=title)
     print(report.text())
     print(f"written: {args.out / 'eval.json'}, {png}")
@@ -74,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Path | None, pointnet: EvalReport) -> None:
+    from auvlink.atomic import write_text
     from auvlink.jsonutil import to_jsonable
     from classify.baseline2d import CNNConfig
     from classify.baseline_eval import run_baseline2d
@@ -84,7 +95,7 @@ def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Pat
     rep = out.report
     result = {"source": "single simulated sonar images (held-out headings, tilts, altitudes)", "n_train": out.n_train,
               "render_seconds": out.render_seconds, "train_seconds": out.result.seconds, **rep.to_dict()}
-    (args.out / "baseline2d.json").write_text(json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
+    write_text(args.out / "baseline2d.json", json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
     png = plot_confusion(rep, args.out / "baseline2d_confusion.png", title=f"2D CNN, single images (n={rep.n})")
     print("\n2D baseline (one sonar image per object):")
     print(rep.text())

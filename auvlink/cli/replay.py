@@ -2,7 +2,9 @@
 
 The raw frames go back through the same framers, codecs and drivers as live operation; then
 navigation, reconstruction, clustering and classification. DIR receives ``detections.jsonl``,
-``cloud.ply``, ``objects/*.ply``, ``summary.json`` and ``report.html``.
+``cloud.ply``, ``objects/*.ply``, ``summary.json`` and ``report.html``. DIR is checked before any work
+(new or empty unless ``--force``, writable) and filled in a temporary folder renamed when whole
+(:func:`auvlink.atomic.atomic_dir`).
 """
 
 from __future__ import annotations
@@ -10,12 +12,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from auvlink.atomic import atomic_dir, check_output_dir
+from auvlink.config import load_config
 from auvlink.errors import AuvlinkError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("log", type=Path, help="mission log (.mcap)")
     p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument("--force", action="store_true", help="write into a non-empty DIR (files of the same names replaced)")
     pace = p.add_mutually_exclusive_group()
     pace.add_argument("--speed", type=float, default=None, help="replay at X times real time")
     pace.add_argument("--fast", action="store_true", help="as fast as possible (the default)")
@@ -23,23 +28,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-classify", action="store_true", help="stop after clustering")
     p.add_argument("--no-report", action="store_true", help="skip report.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--config", type=Path, default=None,
+                   help="vehicle configuration (TOML) to use instead of the one the log stores")
 
 
 def process(log: Path, out: Path, *, speed: float | None, model: Path | None, classify: bool,
-            report: bool, progress: bool) -> dict[str, object]:
+            report: bool, progress: bool, config: Path | None = None) -> dict[str, object]:
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
     from auvlink.pipeline.report import write_report
 
+    check_inputs(log, speed)
+    vehicle = load_config(config) if config is not None else None
+    result = run_log(log, speed=speed, model=model, classify=classify, progress=progress, config=vehicle)
+    with atomic_dir(out) as tmp:
+        summary = write_outputs(result, tmp)
+        if report:
+            write_report(result, summary, tmp)
+    if report:
+        summary["report"] = str(out / "report.html")
+    return summary
+
+
+def check_inputs(log: Path, speed: float | None) -> None:
+    """What can be checked of the input before any work."""
     if not log.is_file():
         raise AuvlinkError(f"{log}: no such log")
     if speed is not None and speed <= 0:
         raise AuvlinkError(f"--speed must be > 0, got {speed}")
-    result = run_log(log, speed=speed, model=model, classify=classify, progress=progress)
-    summary = write_outputs(result, out)
-    if report:
-        summary["report"] = str(write_report(result, summary, out))
-    return summary
 
 
 def engine_line(summary: dict[str, object]) -> str | None:
@@ -66,8 +82,10 @@ def scores_line(summary: dict[str, object]) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_inputs(args.log, args.speed)
+    check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
     summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
-                      report=not args.no_report, progress=not args.quiet)
+                      report=not args.no_report, progress=not args.quiet, config=args.config)
     print(f"{summary['detections']} objects -> {args.out / 'detections.jsonl'}")
     line = engine_line(summary)
     if line and not args.quiet:

@@ -1,11 +1,13 @@
 """``auvlink sim``: simulate a mission into a log, or live on the virtual ports of a config file.
 
-    auvlink sim [--scene SCENE.toml] --out LOG.mcap [--seed N] [--duration S] [--no-noise] [--workers N]
+    auvlink sim [--scene SCENE.toml] --out LOG.mcap [--force] [--seed N] [--duration S] [--no-noise] [--workers N]
     auvlink sim [--scene SCENE.toml] --live CONFIG.toml [--speed X] [--duration S] [--seed N] [--no-noise]
 
 Without ``--scene`` the scene shipped in the package is used. ``--out`` runs as fast as the machine
 allows (a progress bar on stderr, a summary on stdout); ``--live`` serves the devices of the
 config at ``--speed`` x real time until the survey ends, ``--duration`` passes or Ctrl-C / SIGTERM.
+An existing ``--out`` is replaced only with ``--force``; the log is written as ``LOG.mcap.partial`` and
+renamed when complete (a failed or interrupted run leaves ``LOG.mcap`` as it was).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     mode = parser.add_mutually_exclusive_group(required=True)
     mode.add_argument("--out", help="write the simulated mission to this log (.mcap), as fast as possible")
     mode.add_argument("--live", metavar="CONFIG", help="serve the devices of this vehicle config in real time")
+    parser.add_argument("--force", action="store_true", help="--out: replace an existing log")
     parser.add_argument("--seed", type=int, default=None, help="seed of every random draw (default: the scene's)")
     parser.add_argument("--duration", type=float, default=None, help="seconds of mission (default: the survey)")
     parser.add_argument("--no-noise", action="store_true", help="noise-free sensors (truth + wire quantization)")
@@ -42,8 +45,10 @@ def _scene(path: str | None) -> Scene:
 
 
 def _to_log(args: argparse.Namespace) -> int:
+    from auvlink.atomic import check_output_file
     from auvlink.sim.mission import simulate_to_log
 
+    check_output_file(args.out, force=args.force, inputs=[args.scene], what="log")
     result = simulate_to_log(_scene(args.scene), args.out, seed=args.seed, progress=not args.quiet,
                              duration=args.duration, noise=False if args.no_noise else None,
                              workers=args.workers)

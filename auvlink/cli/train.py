@@ -3,7 +3,8 @@
 Synthesizes training clouds from the object catalog (cached under ``--cache``), trains PointNet
 with the settings of ``--config`` (default: the shipped ``classify/data/train_default.toml``),
 evaluates on held-out synthesized clouds and writes the checkpoint (class names, synthesis
-settings, model and training configuration, metrics).
+settings, model and training configuration, metrics). An existing ``--out`` is replaced only with
+``--force`` (checked before any work); the checkpoint is written under a temporary name and renamed.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pathlib import Path
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("pointnet.pt"), help="checkpoint to write (default pointnet.pt)")
+    p.add_argument("--force", action="store_true", help="replace an existing --out")
     p.add_argument("--config", type=Path, default=None,
                    help="training settings TOML (default: classify/data/train_default.toml)")
     p.add_argument("--epochs", type=int, default=None, help="override the number of epochs")
@@ -29,6 +31,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from auvlink.atomic import check_output_file
+
+    check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
     from classify.config import load_train_settings, with_overrides
     from classify.dataset import default_cache_dir
     from classify.workflow import train_and_save

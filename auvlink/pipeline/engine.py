@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from auvlink.geodesy import Datum
 from auvlink.pipeline.georef import Georef
 from auvlink.pipeline.latency import StageTimes
 from auvlink.pipeline.process import Detection, StripFrame, default_recon_config
@@ -81,7 +82,8 @@ class Engine:
         self.recon_config = recon_config or default_recon_config()
         self.nav = CausalNavigator(nav_config(setup), self.config.max_extrapolation_s)
         self.router = Router()
-        self.georef = Georef(setup.site, setup.gnss_lever_arm or (0.0, 0.0, 0.0), setup.gnss_lever_arm is not None)
+        gm = setup.gnss_mounting
+        self.georef = Georef(Datum.of_site(setup.site), gm.xyz if gm is not None else (0.0, 0.0, 0.0), gm is not None)
         self._applied: dict[int, np.ndarray] = {}  # detection id -> the D -> W shift it was handed on with
         self.times = StageTimes()
         self.detections: list[Detection] = []

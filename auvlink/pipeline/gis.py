@@ -19,6 +19,7 @@ import csv
 import datetime as dt
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -93,20 +94,22 @@ def write_kml(result: MissionResult, track: dict[str, np.ndarray], path: Path) -
     kml.save(str(path))
 
 
-def write_gis(result: MissionResult, out_dir: Path) -> list[str]:
-    """Write the GIS files into ``out_dir``; returns their names."""
+def write_gis(result: MissionResult, write: Callable[[str, Callable[[Path], Any]], None]) -> list[str]:
+    """Write the GIS files through ``write(name, fn)`` (``fn(path)`` writes the file; the caller makes it
+    atomic); returns their names."""
     track = result.track_info
     written = []
     if track.get("time") is not None:
-        write_track_csv(track, out_dir / "track.csv")
+        write("track.csv", lambda p: write_track_csv(track, p))
         written.append("track.csv")
     if not result.georef.get("georeferenced"):
         return written
-    (out_dir / "detections.geojson").write_text(json.dumps(detections_geojson(result), indent=1) + "\n")
+    dets = json.dumps(detections_geojson(result), indent=1) + "\n"
+    write("detections.geojson", lambda p: p.write_text(dets))
     written.append("detections.geojson")
     if track.get("time") is not None and len(track["time"]):
-        (out_dir / "track.geojson").write_text(json.dumps(track_geojson(track)) + "\n")
-        written.append("track.geojson")
-        write_kml(result, track, out_dir / "detections.kml")
-        written.append("detections.kml")
+        line = json.dumps(track_geojson(track)) + "\n"
+        write("track.geojson", lambda p: p.write_text(line))
+        write("detections.kml", lambda p: write_kml(result, track, p))
+        written += ["track.geojson", "detections.kml"]
     return written

@@ -13,7 +13,8 @@ Events (port lost / reopened, frames dropped, the log failing) go to the log's `
 (JSON, schema ``auvlink.Event``) and to the summary. ``stop`` (SIGINT / SIGTERM in the CLI) or the
 end of ``duration`` flushes everything: the engine finishes the open objects, DIR gets its files,
 the log its last chunk and summary. A log that cannot be written stops the run the same way, with
-the message in ``LiveRun.fatal``; what was written before stays readable.
+the message in ``LiveRun.fatal``; what was written before stays readable, and DIR still gets every
+file that can be written (``summary["unwritten"]`` lists the others).
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ class LiveRun:
         self._delivered: dict[str, int] = {}  # samples handed over per device (each device: one reader thread)
         self.events: list[dict[str, Any]] = []
         self.fatal = ""
+        self.summary: dict[str, Any] = {}  # summary.json's content, once run() returns
         self._log: Any = None
         self._user_on_detection = on_detection
         self._lock = threading.Lock()
@@ -112,7 +114,7 @@ class LiveRun:
             self.out_dir.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise AuvlinkError(f"cannot create the output folder {self.out_dir}: {exc.strerror or exc}") from exc
-        setup = MissionSetup.from_metadata({"vehicle_config": {"config": self.config.to_dict()}})
+        setup = MissionSetup.from_config(self.config)
         stream = DetectionStream(self.out_dir)
 
         def on_detection(det: Any) -> None:
@@ -165,7 +167,12 @@ class LiveRun:
                    "total_s": time.perf_counter() - t_start}
         result = result_of(engine, self.log_path, timings, devices, self.fatal, mode="live", drops=self.drops,
                            events=self.events)
-        write_outputs(result, self.out_dir)
+        self.summary = write_outputs(result, self.out_dir, keep_going=True)
+        unwritten = self.summary.get("unwritten")
+        if unwritten or stream.error is not None:
+            what = ", ".join(unwritten) if unwritten else f"detections as they came ({stream.error})"
+            with self._lock:
+                self.fatal = "; ".join(filter(None, [self.fatal, f"not written in {self.out_dir}: {what}"]))
         return result
 
     def _drain(self, engine: Engine) -> int:

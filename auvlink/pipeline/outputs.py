@@ -6,17 +6,22 @@ the GNSS fixes used and rejected.
 
 :class:`DetectionStream` writes each detection as it is made (its PLY, then its line, flushed), so a
 live run's folder holds every object finalized so far even if the run is killed; :func:`write_outputs`
-writes the whole folder at the end.
+writes the whole folder at the end, each file under a temporary name renamed when whole
+(:func:`auvlink.atomic.atomic_path`), so a crash never leaves a half file of a name it writes.
 """
 
 from __future__ import annotations
 
+import functools
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from auvlink.atomic import atomic_path
+from auvlink.errors import OutputError
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.process import Detection, MissionResult
 from auvlink.pipeline.scoring import score_detections
@@ -35,37 +40,59 @@ class DetectionStream:
         self.path = out_dir / "detections.jsonl"
         self.path.write_text("")
         self.count = 0
+        self.error: OSError | None = None  # the first write that failed (disk full): streaming stops there
 
     def __call__(self, det: Detection) -> None:
         from recon.ply import write_ply
 
+        if self.error is not None:
+            return
         name = object_ply_name(det)
-        write_ply(self.out_dir / name, det.points)
-        with open(self.path, "a") as f:
-            f.write(json.dumps(to_jsonable(det.to_json(name)), allow_nan=False) + "\n")
-            f.flush()
+        try:
+            write_ply(self.out_dir / name, det.points)
+            with open(self.path, "a") as f:
+                f.write(json.dumps(to_jsonable(det.to_json(name)), allow_nan=False) + "\n")
+                f.flush()
+        except OSError as exc:  # the run goes on; write_outputs tries the whole folder again at the end
+            self.error = exc
+            return
         self.count += 1
 
 
-def write_outputs(result: MissionResult, out_dir: Path) -> dict[str, Any]:
-    """Write the files of ARCHITECTURE.md's output folder; returns the summary dict."""
+def _write(out_dir: Path, name: str, write: Callable[[Path], Any], unwritten: list[str] | None) -> None:
+    """Write ``out_dir/name`` atomically; with ``unwritten`` a failure is listed there instead of raised."""
+    try:
+        with atomic_path(out_dir / name) as tmp:
+            write(tmp)
+    except OSError as exc:
+        if unwritten is None:
+            raise OutputError(f"cannot write {out_dir / name}: {exc.strerror or exc}") from exc
+        unwritten.append(f"{name} ({exc.strerror or exc})")
+
+
+def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = False) -> dict[str, Any]:
+    """Write the files of ARCHITECTURE.md's output folder; returns the summary dict. A file that cannot
+    be written raises :class:`OutputError`; with ``keep_going`` (a live run: write what can be written)
+    the others are still written and the summary lists the failed ones under ``unwritten``."""
     from recon.ply import write_ply
 
+    unwritten: list[str] | None = [] if keep_going else None
     out_dir.mkdir(parents=True, exist_ok=True)
     obj_dir = out_dir / "objects"
     obj_dir.mkdir(exist_ok=True)
     lines = []
     for det in result.detections:
         name = object_ply_name(det)
-        write_ply(out_dir / name, det.points)
+        _write(out_dir, name, functools.partial(write_ply, points=det.points), unwritten)
         lines.append(json.dumps(to_jsonable(det.to_json(name)), allow_nan=False))
-    (out_dir / "detections.jsonl").write_text("".join(line + "\n" for line in lines))
+    _write(out_dir, "detections.jsonl", lambda p: p.write_text("".join(line + "\n" for line in lines)),
+           unwritten)
     cloud = (np.concatenate([d.points for d in result.detections]) if result.detections
              else np.zeros((0, 3)))
-    write_ply(out_dir / "cloud.ply", cloud)
+    _write(out_dir, "cloud.ply", lambda p: write_ply(p, cloud), unwritten)
     from auvlink.pipeline.gis import write_gis
 
-    gis_files = write_gis(result, out_dir)
+    gis_files = write_gis(result, lambda name, fn: _write(out_dir, name, fn, unwritten))
     summary = {
         "log": str(result.log),
         "detections": len(result.detections),
@@ -81,5 +108,8 @@ def write_outputs(result: MissionResult, out_dir: Path) -> dict[str, Any]:
         "scores": score_detections(result),
         "georef": {**result.georef, "files": gis_files},
     }
-    (out_dir / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=2, allow_nan=False) + "\n")
+    if unwritten is not None:
+        summary["unwritten"] = unwritten  # the summary itself last: what it says is all that failed before it
+    text = json.dumps(to_jsonable(summary), indent=2, allow_nan=False) + "\n"
+    _write(out_dir, "summary.json", lambda p: p.write_text(text), unwritten)
     return summary

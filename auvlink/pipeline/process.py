@@ -8,6 +8,7 @@ need. :func:`run_log_batch` keeps the non-causal batch path as a reference for t
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,6 +17,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from auvlink.config import VehicleConfig
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 
@@ -118,11 +120,13 @@ LIVE_META = "live_pipeline"
 
 def run_log(log: Path, *, speed: float | None = None, model: Path | None = None, classify: bool = True,
             progress: bool = True, recon_config: Any = None, engine_config: Any = None,
-            on_detection: Any = None) -> MissionResult:
+            on_detection: Any = None, config: VehicleConfig | None = None) -> MissionResult:
     """The streaming engine on a log (``auvlink replay``): the same engine as ``auvlink live``.
 
     A log written by ``auvlink live`` carries the live engine settings and time origin; they are
-    used unless ``engine_config`` is given, so the replay gives the live detections.
+    used unless ``engine_config`` is given, so the replay gives the live detections. ``config``
+    (``--config``) replaces the vehicle configuration the log stores; a stored configuration that
+    fails validation is replaced by the defaults with one warning line on stderr.
     """
     from auvlink.pipeline.engine import Engine, EngineConfig
     from logs_format import MissionLogReader, Replay
@@ -133,7 +137,9 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
         duration = reader.duration_s
         log_start = reader.start_ns
         dropped = dropped_live(reader)
-    setup = MissionSetup.from_metadata(meta)
+    setup = MissionSetup.from_metadata(meta, config)
+    if setup.warning:
+        print(f"auvlink: warning: {log}: {setup.warning}", file=sys.stderr)
     live_cfg, t0_ns = live_settings(meta)
     cfg = engine_config or (EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK))
     engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config, classify=classify, model=model,

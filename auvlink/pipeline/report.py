@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from auvlink import __version__
+from auvlink.atomic import write_text
 from auvlink.pipeline import plots
 from auvlink.pipeline.process import MissionResult
 
@@ -73,6 +74,4 @@ def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) 
         f"<p>Log integrity: {html.escape(result.loss or 'complete')}</p>",
         "</body></html>",
     ]
-    path = out_dir / "report.html"
-    path.write_text("\n".join(parts))
-    return path
+    return write_text(out_dir / "report.html", "\n".join(parts))  # atomic: never a half report

@@ -1,12 +1,28 @@
-"""Pipeline set-up from a mission log's metadata: sonar geometry, DVL mounting, ground truth."""
+"""Pipeline set-up from the validated vehicle configuration: sonar geometry, mountings, ground truth.
+
+:class:`MissionSetup` is built directly from a :class:`~auvlink.config.VehicleConfig` (``auvlink
+live``) or from the configuration a mission log stores, validated by the same model
+(:func:`~auvlink.config.config_from_metadata`). A log whose stored configuration is damaged (a
+tilt of ``"abc"``, ``devices`` a string) still replays: the setup falls back to the configuration
+given on the command line (``--config``) or to the defaults, and :attr:`MissionSetup.warning`
+says in one line which key was bad.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
+
+from auvlink.config import VehicleConfig, config_from_metadata
+from auvlink.errors import ConfigError
+from auvlink.sonar import DEFAULT_SONAR, Mounting, Sonar
+from auvlink.validation import Site
+from recon.frames import rdi_instrument_mounting
+from recon.nav import NavConfig
+from recon.sonar_geometry import SonarGeometry
 
 
 @dataclass(frozen=True)
@@ -20,82 +36,98 @@ class TruthObject:
 
 @dataclass(frozen=True)
 class MissionSetup:
-    """What the pipeline needs to know about the vehicle, from the log's ``vehicle_config``."""
+    """What the pipeline needs to know about the vehicle: the sonar, every mounting, the site, the truth."""
 
-    tilt_deg: float = 30.0
-    spread_deg: float = 14.0
-    window_start: float = 1.0
-    window_length: float = 10.0
-    sonar_lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    dvl_lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    dvl_yaw_deg: float = 0.0
-    pressure_lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    sonar: Sonar = DEFAULT_SONAR
+    sonar_mounting: Mounting = field(default_factory=Mounting)
+    dvl_mounting: Mounting = field(default_factory=Mounting)
+    pressure_mounting: Mounting = field(default_factory=Mounting)
+    site: Site | None = None
+    gnss_mounting: Mounting | None = None  # the GNSS antenna (``nmea`` device); None: no GNSS receiver
     truth: tuple[TruthObject, ...] = ()
-    truth_track: Any = None  # (times s since epoch, positions (n, 3)) when the log has it
-    site: Any = None  # auvlink.geodesy.Datum of the configuration's [site], or None
-    gnss_lever_arm: tuple[float, float, float] | None = None  # the GNSS antenna (None: no GNSS device)
-    truth_site: Any = None  # the datum of the simulator's truth (its NED frame), when the log has one
-    extra: dict[str, Any] = field(default_factory=dict)
+    warning: str = ""  # why the log's stored vehicle configuration was not used ("" when it was)
+
+    # the sonar's numbers under the names the pipeline used before they moved into ``sonar``
+    @property
+    def tilt_deg(self) -> float:
+        return self.sonar.tilt_deg
+
+    @property
+    def spread_deg(self) -> float:
+        return self.sonar.spread_deg
+
+    @property
+    def window_start(self) -> float:
+        return self.sonar.window_start
+
+    @property
+    def window_length(self) -> float:
+        return self.sonar.window_length
 
     @classmethod
-    def from_metadata(cls, meta: dict[str, dict[str, Any]]) -> MissionSetup:
-        vc = meta.get("vehicle_config", {})
-        cfg = vc.get("config", vc) if isinstance(vc, dict) else {}
-        kw: dict[str, Any] = {}
-        sonar = cfg.get("sonar") or {}
-        for key in ("tilt_deg", "spread_deg", "window_start", "window_length"):
-            if sonar.get(key) is not None:
-                kw[key] = float(sonar[key])
-        sonar_dev = sonar.get("device") or "sonar"
-        for dev in cfg.get("devices", []) or []:
-            xyz = tuple(float(v) for v in (dev.get("mounting") or {}).get("xyz", (0, 0, 0)))
-            rpy = (dev.get("mounting") or {}).get("rpy_deg", (0, 0, 0))
-            if dev.get("name") == sonar_dev or dev.get("format") in ("didson", "aris"):
-                kw["sonar_lever_arm"] = xyz
-            elif dev.get("format") == "pd0":
-                kw["dvl_lever_arm"] = xyz
-                kw["dvl_yaw_deg"] = float(rpy[2])
-            elif dev.get("format") in ("paro", "keller"):
-                kw["pressure_lever_arm"] = xyz
-            elif dev.get("format") == "nmea":
-                kw["gnss_lever_arm"] = xyz
-        from auvlink.geodesy import Datum
+    def from_config(cls, config: VehicleConfig, truth: tuple[TruthObject, ...] = (), warning: str = "") -> MissionSetup:
+        """The setup of a validated vehicle configuration (devices picked by format / the sonar's name)."""
+        sonar = config.sonar.geometry() if config.sonar is not None else DEFAULT_SONAR
+        sonar_dev = (config.sonar.device if config.sonar is not None else None) or "sonar"
+        sonar_m = dvl_m = pressure_m = Mounting()
+        gnss_m: Mounting | None = None
+        for dev in config.devices:  # a later device of a role wins, as the log's re-parse did
+            if dev.name == sonar_dev or dev.format in ("didson", "aris"):
+                sonar_m = dev.mounting
+            elif dev.format == "pd0":
+                dvl_m = dev.mounting
+            elif dev.format in ("paro", "keller"):
+                pressure_m = dev.mounting
+            elif dev.format == "nmea":
+                gnss_m = dev.mounting
+        return cls(sonar=sonar, sonar_mounting=sonar_m, dvl_mounting=dvl_m, pressure_mounting=pressure_m,
+                   site=config.site, gnss_mounting=gnss_m, truth=truth, warning=warning)
 
-        kw["site"] = Datum.from_dict(cfg.get("site"))
-        gt = meta.get("ground_truth") or {}
-        kw["truth_site"] = Datum.from_dict(gt.get("site"))
-        kw["truth"] = tuple(_truth_objects(gt))
-        return cls(**kw)
+    @classmethod
+    def from_metadata(cls, meta: Mapping[str, object], config: VehicleConfig | None = None) -> MissionSetup:
+        """The setup of a mission log: ``config`` when given, else the log's stored configuration.
+
+        A stored configuration that fails validation gives the defaults and a one-line :attr:`warning`.
+        """
+        truth = tuple(_truth_objects(meta.get("ground_truth")))
+        if config is not None:
+            return cls.from_config(config, truth)
+        if meta.get("vehicle_config") is None:
+            return cls(truth=truth)
+        try:
+            return cls.from_config(config_from_metadata(meta), truth)
+        except ConfigError as exc:
+            return cls(truth=truth, warning=f"the log's vehicle configuration is not valid: {exc}; "
+                                            "using the default sonar and mountings (give --config CONFIG.toml)")
 
 
-def _truth_objects(gt: dict[str, Any]) -> list[TruthObject]:
-    out = []
-    for obj in gt.get("objects", []) or []:
+def _truth_objects(gt: object) -> list[TruthObject]:
+    out: list[TruthObject] = []
+    objects = gt.get("objects", []) if isinstance(gt, Mapping) else []
+    for obj in objects if isinstance(objects, list) else []:
+        if not isinstance(obj, Mapping):
+            continue
         name = obj.get("class") or obj.get("class_name")
         pos = obj.get("position_ned") or obj.get("position")
-        if name is None or pos is None:
+        if name is None or not isinstance(pos, list | tuple):
             continue
-        p = [float(v) for v in pos] + [math.nan] * (3 - len(pos))
-        out.append(TruthObject(str(name), (p[0], p[1], p[2]), float(obj.get("heading_deg", 0.0))))
+        try:
+            p = [float(v) for v in pos] + [math.nan] * (3 - len(pos))
+            out.append(TruthObject(str(name), (p[0], p[1], p[2]), float(obj.get("heading_deg", 0.0))))
+        except (TypeError, ValueError):
+            continue
     return out
 
 
 def sonar_geometry(setup: MissionSetup, azimuths: np.ndarray | None = None,
-                   window: tuple[float, float] | None = None) -> Any:
-    """The :class:`recon.sonar_geometry.SonarGeometry` of this mission."""
-    from recon.sonar_geometry import SonarGeometry
-
-    start, length = window if window is not None else (setup.window_start, setup.window_length)
-    table = None if azimuths is None else tuple(float(a) for a in azimuths)
-    return SonarGeometry(window_start=start, window_length=length, tilt=math.radians(setup.tilt_deg),
-                         spread=math.radians(setup.spread_deg), lever_arm=setup.sonar_lever_arm,
-                         azimuth_table=table)
+                   window: tuple[float, float] | None = None) -> SonarGeometry:
+    """The :class:`recon.sonar_geometry.SonarGeometry` of this mission (the frames' own window when given)."""
+    return SonarGeometry.of(setup.sonar, setup.sonar_mounting, azimuths=azimuths, window=window)
 
 
-def nav_config(setup: MissionSetup) -> Any:
-    from recon.frames import rdi_instrument_mounting
-    from recon.nav import NavConfig
-
-    mounting = rdi_instrument_mounting(lever_arm=setup.dvl_lever_arm,
-                                       heading_misalignment=math.radians(setup.dvl_yaw_deg))
-    return NavConfig(dvl_mounting=mounting, depth_lever_arm=setup.pressure_lever_arm)
+def nav_config(setup: MissionSetup) -> NavConfig:
+    """Navigation set-up: the DVL's full mounting (lever arm, roll, pitch, yaw) and the depth lever arm."""
+    roll, pitch, yaw = setup.dvl_mounting.rpy
+    mounting = rdi_instrument_mounting(lever_arm=setup.dvl_mounting.xyz, heading_misalignment=yaw,
+                                       pitch=pitch, roll=roll)
+    return NavConfig(dvl_mounting=mounting, depth_lever_arm=setup.pressure_mounting.xyz)

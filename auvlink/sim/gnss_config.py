@@ -20,54 +20,39 @@ The receiver reports fix quality 0 (empty position) while its antenna is under w
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import Any
+from typing import Annotated
+
+from pydantic import Field
+from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
-from auvlink.sim.scene import _int, _num, _table, _vec
+from auvlink.validation import CONFIG, Boolean, Integer, Number, Vec2, Vec3
 
 
-@dataclass(frozen=True)
+@model(frozen=True, config=CONFIG)
 class Gnss:
     """The GNSS receiver and the surface phases of a mission (see the module docstring)."""
 
-    rate_hz: float = 1.0
-    sigma_m: float = 0.3  # horizontal, per axis
-    start_offset: tuple[float, float] | None = None  # north, east (m) from the first line's start
-    wait_before_s: float = 20.0
-    wait_after_s: float = 20.0
-    lever_arm: tuple[float, float, float] = (0.0, 0.0, -0.5)  # antenna in the body frame FRD (m)
-    vertical_rate: float = 0.5  # m/s, fastest dive / climb
-    quality: int = 2
-    satellites: int = 12
-    hdop: float = 0.8
+    enabled: Boolean = True
+    rate_hz: Annotated[Number, Field(ge=1.0, le=10.0, description="fixes per second")] = 1.0
+    sigma_m: Annotated[Number, Field(ge=0.0, le=50.0, description="horizontal noise per axis, m")] = 0.3
+    start_offset: Annotated[Vec2 | None, Field(description="north, east (m) from the first line's start")] = None
+    wait_before_s: Annotated[Number, Field(ge=2.0, le=3600.0, description="s on the surface before the dive")] = 20.0
+    wait_after_s: Annotated[Number, Field(ge=2.0, le=3600.0, description="s on the surface after surfacing")] = 20.0
+    lever_arm: Annotated[Vec3, Field(description="antenna in the body frame FRD, m")] = (0.0, 0.0, -0.5)
+    vertical_rate: Annotated[Number, Field(ge=0.05, le=5.0, description="fastest dive / climb, m/s")] = 0.5
+    quality: Annotated[Integer, Field(ge=1, le=8, description="GGA fix quality with a fix")] = 2
+    satellites: Annotated[Integer, Field(ge=0, le=99)] = 12
+    hdop: Annotated[Number, Field(ge=0.1, le=99.0)] = 0.8
 
 
-
-def parse_gnss(doc: Mapping[str, Any]) -> Gnss | None:
-    if "gnss" not in doc:
+def check_gnss(g: Gnss | None) -> Gnss | None:
+    """The table's checks beyond single values; None when absent or ``enabled = false``."""
+    if g is None or not g.enabled:
         return None
-    t, p = _table(doc, "gnss"), "gnss."
-    enabled = t.get("enabled", True)
-    if not isinstance(enabled, bool):
-        raise ConfigError(f"{p}enabled", f"expected true or false, got {enabled!r}", "write enabled = false")
-    if not enabled:
-        return None
-    offset = _vec(t, "start_offset", p, 2, None) if t.get("start_offset") is not None else None
-    if offset is not None and math.hypot(*offset) < 5.0:
-        raise ConfigError(f"{p}start_offset", f"{list(offset)} is closer than 5 m to the first line's start",
+    if g.start_offset is not None and math.hypot(*g.start_offset) < 5.0:
+        raise ConfigError("gnss.start_offset", f"{list(g.start_offset)} is closer than 5 m to the first line's start",
                           "leave room to dive on the way, or leave the key out (a default approach)")
-    lever = _vec(t, "lever_arm", p, 3, [0.0, 0.0, -0.5])
-    return Gnss(
-        rate_hz=_num(t, "rate_hz", p, 1.0, lo=1.0, hi=10.0),
-        sigma_m=_num(t, "sigma_m", p, 0.3, lo=0.0, hi=50.0),
-        start_offset=None if offset is None else (offset[0], offset[1]),
-        wait_before_s=_num(t, "wait_before_s", p, 20.0, lo=2.0, hi=3600.0),
-        wait_after_s=_num(t, "wait_after_s", p, 20.0, lo=2.0, hi=3600.0),
-        lever_arm=(lever[0], lever[1], lever[2]),
-        vertical_rate=_num(t, "vertical_rate", p, 0.5, lo=0.05, hi=5.0),
-        quality=_int(t, "quality", p, 2, lo=1),
-        satellites=_int(t, "satellites", p, 12, lo=0),
-        hdop=_num(t, "hdop", p, 0.8, lo=0.1, hi=99.0),
-    )
+    if any(abs(v) > 10.0 for v in g.lever_arm):
+        raise ConfigError("gnss.lever_arm", f"{list(g.lever_arm)} is out of range", "use values in [-10, 10] m")
+    return g

@@ -29,14 +29,17 @@ import queue
 import threading
 import time
 from dataclasses import dataclass, field, replace
-from typing import IO, Any
+from typing import IO, Any, Literal, cast
+
+from pydantic import ValidationError
 
 from auvlink.config import DeviceConfig, VehicleConfig
 from auvlink.sim.emit import Event, block_events
 from auvlink.sim.mission import Run, prepare
 from auvlink.sim.noise import NoiseConfig, SimError
-from auvlink.sim.scene import Scene
+from auvlink.sim.scene import Scene, SonarConfig
 from auvlink.sim.settings import SimSettings, settings_for
+from auvlink.validation import config_error
 
 ROLES = {"pd0": "dvl", "dsp1760": "gyro", "paro": "pressure", "keller": "pressure", "can": "can",
          "didson": "sonar", "nmea": "gnss"}
@@ -85,7 +88,11 @@ def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[S
         m = devices["dvl"].mounting
         s = replace(s, dvl_lever_arm=m.xyz, dvl_rpy_deg=m.rpy_deg)
     if "pressure" in devices:
-        s = replace(s, pressure=devices["pressure"].format, pressure_lever_arm=devices["pressure"].mounting.xyz)
+        kind = devices["pressure"].format
+        if kind != "paro" and kind != "keller":
+            raise SimError(f"device {devices['pressure'].name!r}: no simulated pressure sensor speaks {kind!r}")
+        s = replace(s, pressure=cast(Literal["paro", "keller"], kind),
+                    pressure_lever_arm=devices["pressure"].mounting.xyz)
     if "gnss" in devices and scene.gnss is not None:
         scene = replace(scene, gnss=replace(scene.gnss, lever_arm=devices["gnss"].mounting.xyz))
     sonar = scene.sonar
@@ -93,8 +100,11 @@ def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[S
         sonar = replace(sonar, lever_arm=devices["sonar"].mounting.xyz)
     if config.sonar is not None:
         c = config.sonar
-        sonar = replace(sonar, tilt_deg=c.tilt_deg, spread_deg=c.spread_deg, window_start=c.window_start,
-                        window_length=c.window_length)
+        try:  # the simulator renders a narrower range of geometries than a vehicle config may describe
+            sonar = replace(sonar, tilt_deg=c.tilt_deg, spread_deg=c.spread_deg, window_start=c.window_start,
+                            window_length=c.window_length)
+        except ValidationError as exc:
+            raise config_error(SonarConfig, exc, "sonar.") from exc
     return replace(scene, sonar=sonar), replace(settings, sensors=s)
 
 

@@ -42,7 +42,7 @@ from auvlink.sim.emit import Event, block_events, device_formats
 from auvlink.sim.noise import NoiseConfig, SimError
 from auvlink.sim.scene import Scene
 from auvlink.sim.sensors import Measurements, measure, sample_times
-from auvlink.sim.settings import SimSettings, settings_for
+from auvlink.sim.settings import SimSettings, check_budget, settings_for
 from auvlink.sim.trajectory import LawnmowerTrajectory, TruePose
 from auvlink.sim.truth import POSE_TOPIC, ground_truth, vehicle_config
 
@@ -96,6 +96,7 @@ def prepare(scene: Scene, seed: int | None = None, duration: float | None = None
                            (NoiseConfig() if noise else NoiseConfig.off()))
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         raise SimError(f"the duration must be a positive number of seconds, got {duration}")
+    check_budget(scene, settings)
     traj = LawnmowerTrajectory.from_scene(scene)
     return Run(scene, settings, traj, measure(scene, settings, duration, traj))
 
@@ -201,7 +202,8 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
         pool = stack.enter_context(worker_pool(run, n_workers)) if n_workers > 1 else None
         bar = stack.enter_context(tqdm(total=len(run.measurements.sonar.t), unit="frame", desc="auvlink sim",
                                        disable=not progress, file=sys.stderr, dynamic_ncols=True))
-        log = stack.enter_context(MissionLogWriter(out, flush_interval=0.0, fsync=False, software=False))
+        log = stack.enter_context(MissionLogWriter(out, flush_interval=0.0, fsync=False, software=False,
+                                                   keep_failed=False))  # a failed run leaves ``out`` as it was
         log.add_metadata(META_SOFTWARE, {"name": "auvlink", "version": __version__, "generator": "auvlink.sim"})
         log.add_vehicle_config(vehicle_config(run.scene, run.settings))
         log.add_metadata(META_GROUND_TRUTH, meta)

@@ -37,34 +37,42 @@ from __future__ import annotations
 import math
 import zlib
 from dataclasses import dataclass, field, fields, replace
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
+from pydantic import Field
+from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import AuvlinkError
+from auvlink.validation import CONFIG, Number
 
 
 class SimError(AuvlinkError):
     """The simulator cannot run as asked (a device it cannot emit, a port it cannot serve)."""
 
 
-@dataclass(frozen=True)
+#: a noise magnitude (>= 0; finite)
+Sigma = Annotated[Number, Field(ge=0.0, le=1.0e6)]
+Fraction = Annotated[Number, Field(ge=0.0, le=1.0)]
+
+
+@model(frozen=True, config=CONFIG)
 class DvlNoise:
-    velocity_sigma: float = 0.003
-    scale_error: float = 0.001
-    range_sigma: float = 0.01
-    dropout_probability: float = 0.01
-    heading_sigma_deg: float = 0.5
-    attitude_sigma_deg: float = 0.1
-    temperature_sigma_c: float = 0.02
+    velocity_sigma: Sigma = 0.003
+    scale_error: Annotated[Number, Field(ge=-0.1, le=1.0)] = 0.001
+    range_sigma: Sigma = 0.01
+    dropout_probability: Fraction = 0.01
+    heading_sigma_deg: Sigma = 0.5
+    attitude_sigma_deg: Sigma = 0.1
+    temperature_sigma_c: Sigma = 0.02
 
 
-@dataclass(frozen=True)
+@model(frozen=True, config=CONFIG)
 class GyroNoise:
-    arw_deg_per_sqrt_h: float = 0.012
-    bias_instability_deg_per_h: float = 0.05
-    bias_correlation_s: float = 300.0
-    accel_noise_density: float = 0.001
+    arw_deg_per_sqrt_h: Sigma = 0.012
+    bias_instability_deg_per_h: Sigma = 0.05
+    bias_correlation_s: Annotated[Number, Field(gt=0.0, le=1.0e6)] = 300.0
+    accel_noise_density: Sigma = 0.001
 
     @property
     def arw(self) -> float:  # rad/sqrt(s)
@@ -75,20 +83,20 @@ class GyroNoise:
         return math.radians(self.bias_instability_deg_per_h) / 3600.0
 
 
-@dataclass(frozen=True)
+@model(frozen=True, config=CONFIG)
 class PressureNoise:
-    sigma_fs: float = 1.0e-4
-    full_scale_pa: float = 2.0e6
+    sigma_fs: Fraction = 1.0e-4
+    full_scale_pa: Annotated[Number, Field(gt=0.0, le=1.0e9)] = 2.0e6
 
     @property
     def sigma_pa(self) -> float:  # Pa
         return self.sigma_fs * self.full_scale_pa
 
 
-@dataclass(frozen=True)
+@model(frozen=True, config=CONFIG)
 class AhrsNoise:
-    heading_sigma_deg: float = 0.1
-    attitude_sigma_deg: float = 0.05
+    heading_sigma_deg: Sigma = 0.1
+    attitude_sigma_deg: Sigma = 0.05
 
 
 #: fields that keep their value in the noise-free mode (they shape noise, they are not noise)

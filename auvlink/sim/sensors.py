@@ -181,5 +181,5 @@ def measure(scene: Scene, settings: SimSettings, duration: float | None = None,
         ahrs=simulate_ahrs(traj, sample_times(s.can_hz, dur), settings, seed),
         sonar=sonar_poses(traj, scene, sample_times(scene.sonar.fps, dur)),
         gnss=None if scene.gnss is None else simulate_gnss(traj, sample_times(scene.gnss.rate_hz, dur), scene.gnss,
-                                                           scene.site, seed),
+                                                           scene.datum, seed),
     )

@@ -1,9 +1,11 @@
 """Simulator settings: the optional ``[sensors]`` and ``[noise]`` tables of a scene file.
 
-The scene loader (:mod:`auvlink.sim.scene`) ignores both; :func:`settings_for` reads them from the
-same TOML text. Every key has a default; an unknown key or a bad value raises
-:class:`~auvlink.errors.ConfigError` naming the dotted key. The ``[noise]`` table is documented in
-:mod:`auvlink.sim.noise`.
+The scene loader (:mod:`auvlink.sim.scene`) leaves both to this module; :func:`settings_for` reads
+them from the same TOML text, validated by the pydantic models :class:`SensorSettings` and
+:class:`NoiseTable` (``docs/schemas/settings.schema.json``). Every key has a default; an unknown key or
+a bad value raises :class:`~auvlink.errors.ConfigError` naming the dotted key and the allowed keys or
+range; :func:`check_budget` bounds the samples a mission's streams may hold. The ``[noise]`` table is
+documented in :mod:`auvlink.sim.noise`.
 
 .. code-block:: toml
 
@@ -29,45 +31,91 @@ same TOML text. Every key has a default; an unknown key or a bad value raises
 from __future__ import annotations
 
 import datetime as dt
-import math
-import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, field_validator
+from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
-from auvlink.sim.noise import SHAPE_FIELDS, AhrsNoise, DvlNoise, GyroNoise, NoiseConfig, PressureNoise
-from auvlink.sim.scene import Scene, default_scene_text
+from auvlink.sim.noise import AhrsNoise, DvlNoise, GyroNoise, NoiseConfig, PressureNoise
+from auvlink.sim.scene import Scene, SceneFile, default_scene_text
+from auvlink.sonar import Lever
+from auvlink.validation import CONFIG, Boolean, Integer, Number, Vec3, loads_toml, validate
 
 PRESSURE_KINDS = ("paro", "keller")
 DEFAULT_START = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
+#: most samples one sensor stream may hold for a mission (the simulator computes them up front)
+MAX_SAMPLES = 20_000_000
 
 
-@dataclass(frozen=True)
+Hz = Field(description="Hz")
+Rate100 = Annotated[Number, Field(gt=0.0, le=100.0), Hz]
+Rate1k = Annotated[Number, Field(gt=0.0, le=1000.0), Hz]
+Rate5k = Annotated[Number, Field(gt=0.0, le=5000.0), Hz]
+Rate10k = Annotated[Number, Field(gt=0.0, le=10_000.0), Hz]
+TopicRate = Annotated[Number, Field(ge=0.0, le=1000.0), Field(description="Hz (0: none)")]
+Temperature = Annotated[Number, Field(ge=-5.0, le=100.0, description="degC")]
+
+
+@model(frozen=True, config=CONFIG)
 class SensorSettings:
-    pressure: str = "paro"
-    dvl_hz: float = 5.0
-    gyro_hz: float = 100.0
-    pressure_hz: float = 10.0
-    can_hz: float = 10.0
-    truth_hz: float = 50.0
-    truth_topic_hz: float = 10.0
-    dvl_lever_arm: tuple[float, float, float] = (0.40, 0.0, 0.25)
-    dvl_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    pressure_lever_arm: tuple[float, float, float] = (-0.60, 0.0, 0.0)
-    water_temperature_c: float = 10.0
-    sound_speed: float = 1500.0
+    pressure: Literal["paro", "keller"] = "paro"
+    dvl_hz: Rate100 = 5.0
+    gyro_hz: Rate5k = 100.0
+    pressure_hz: Rate1k = 10.0
+    can_hz: Rate1k = 10.0
+    truth_hz: Rate10k = 50.0
+    truth_topic_hz: TopicRate = 10.0
+    dvl_lever_arm: Lever = (0.40, 0.0, 0.25)
+    dvl_rpy_deg: Annotated[Vec3, Field(description="DVL mounting roll, pitch, yaw in B, deg")] = (0.0, 0.0, 0.0)
+    pressure_lever_arm: Lever = (-0.60, 0.0, 0.0)
+    water_temperature_c: Temperature = 10.0
+    sound_speed: Annotated[Number, Field(ge=1300.0, le=1700.0, description="m/s")] = 1500.0
     start: dt.datetime = DEFAULT_START
-    keller_address: int = 1
-    keller_latency_s: float = 0.015  # response after the request (9600 baud: 5 + 9 bytes on the line)
-    gyro_temperature_c: float = 30.0
+    keller_address: Annotated[Integer, Field(ge=0, le=255)] = 1
+    keller_latency_s: Annotated[Number, Field(ge=0.0, le=10.0)] = 0.015  # response after the request
+    gyro_temperature_c: Temperature = 30.0
+
+    @field_validator("start", mode="after")
+    @classmethod
+    def _utc(cls, value: dt.datetime) -> dt.datetime:
+        return value.replace(tzinfo=dt.UTC) if value.tzinfo is None else value.astimezone(dt.UTC)
 
     @property
     def start_ns(self) -> int:
         """UTC nanoseconds since the epoch of mission time 0."""
         delta = self.start - dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
         return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000
+
+
+@model(frozen=True, config=CONFIG)
+class NoiseTable:
+    """``[noise]`` as written: ``enabled`` and one table per sensor (every key has a default)."""
+
+    enabled: Boolean = True
+    dvl: DvlNoise = field(default_factory=DvlNoise)
+    gyro: GyroNoise = field(default_factory=GyroNoise)
+    pressure: PressureNoise = field(default_factory=PressureNoise)
+    ahrs: AhrsNoise = field(default_factory=AhrsNoise)
+
+
+@model(frozen=True, config=CONFIG)
+class SettingsTables:
+    """The simulator settings of a scene file: ``[sensors]`` and ``[noise]`` (or ``noise = false``)."""
+
+    sensors: SensorSettings = field(default_factory=SensorSettings)
+    noise: NoiseTable | Boolean = True
+
+
+@model(frozen=True, kw_only=True, config=CONFIG)
+class SceneDocument(SceneFile):
+    """A whole scene file: the scene's tables and the simulator settings (``docs/schemas/scene.schema.json``)."""
+
+    sensors: SensorSettings | None = None  # type: ignore[assignment]
+    noise: NoiseTable | Boolean | None = None  # type: ignore[assignment]
 
 
 @dataclass(frozen=True)
@@ -77,117 +125,40 @@ class SimSettings:
     scene_text: str = ""  # the scene file's TOML ("" when the scene was built in code)
 
 
-def _number(value: Any, key: str, lo: float = 0.0, hi: float = math.inf, open_lo: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ConfigError(key, f"expected a finite number, got {value!r}", "write a plain number, e.g. 1.0")
-    v = float(value)
-    if v < lo or v > hi or (open_lo and v == lo):
-        raise ConfigError(key, f"{v} is out of range", f"use a value in {'(' if open_lo else '['}{lo}, {hi}]")
-    return v
-
-
-def _vec3(value: Any, key: str) -> tuple[float, float, float]:
-    ok = isinstance(value, list) and len(value) == 3 and all(
-        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-    if not ok:
-        raise ConfigError(key, f"expected a list of 3 numbers, got {value!r}", "write [x, y, z]")
-    return (float(value[0]), float(value[1]), float(value[2]))
-
-
-def _start(value: Any, key: str) -> dt.datetime:
-    if isinstance(value, str):
-        try:
-            value = dt.datetime.fromisoformat(value.replace("Z", "+00:00"))
-        except ValueError as exc:
-            raise ConfigError(key, f"not an ISO 8601 time: {value!r}", 'write "2026-01-01T00:00:00Z"') from exc
-    if not isinstance(value, dt.datetime):
-        raise ConfigError(key, f"expected a date-time, got {value!r}", 'write "2026-01-01T00:00:00Z"')
-    return value.replace(tzinfo=dt.UTC) if value.tzinfo is None else value.astimezone(dt.UTC)
-
-
-_RATE_HI = {"dvl_hz": 100.0, "gyro_hz": 5000.0, "pressure_hz": 1000.0, "can_hz": 1000.0, "truth_hz": 10000.0,
-            "truth_topic_hz": 1000.0}
-
-
-def _sensors(table: Mapping[str, Any]) -> SensorSettings:
-    known = {f.name for f in fields(SensorSettings)}
-    kw: dict[str, Any] = {}
-    for key, value in table.items():
-        name = f"sensors.{key}"
-        if key not in known:
-            raise ConfigError(name, "unknown key", f"allowed: {', '.join(sorted(known))}")
-        if key == "pressure":
-            if value not in PRESSURE_KINDS:
-                raise ConfigError(name, f"unknown pressure sensor {value!r}", 'use "paro" or "keller"')
-            kw[key] = value
-        elif key.endswith(("lever_arm", "rpy_deg")):
-            kw[key] = _vec3(value, name)
-        elif key == "start":
-            kw[key] = _start(value, name)
-        elif key == "keller_address":
-            kw[key] = int(_number(value, name, 0, 255))
-        elif key in _RATE_HI:
-            kw[key] = _number(value, name, 0.0, _RATE_HI[key], open_lo=key != "truth_topic_hz")
-        elif key == "sound_speed":
-            kw[key] = _number(value, name, 1300.0, 1700.0)
-        else:
-            kw[key] = _number(value, name, -5.0 if key.endswith("_c") else 0.0, 100.0 if key.endswith("_c")
-                              else 10.0)
-    return SensorSettings(**kw)
-
-
-def _noise_part(cls: type, table: Any, prefix: str) -> Any:
-    if not isinstance(table, Mapping):
-        raise ConfigError(prefix, "expected a table", f"write [{prefix}]")
-    known = {f.name for f in fields(cls)}
-    kw: dict[str, float] = {}
-    for key, value in table.items():
-        if key not in known:
-            raise ConfigError(f"{prefix}.{key}", "unknown key", f"allowed: {', '.join(sorted(known))}")
-        hi = 1.0 if key in ("dropout_probability", "scale_error", "sigma_fs") else math.inf
-        lo = -0.1 if key == "scale_error" else 0.0
-        kw[key] = _number(value, f"{prefix}.{key}", lo, hi, open_lo=key in SHAPE_FIELDS)
-    return cls(**kw)
-
-
-_NOISE_PARTS: dict[str, type] = {"dvl": DvlNoise, "gyro": GyroNoise, "pressure": PressureNoise, "ahrs": AhrsNoise}
-
-
-def _noise(value: Any) -> NoiseConfig:
+def _noise(value: NoiseTable | bool) -> NoiseConfig:
     if isinstance(value, bool):
         return NoiseConfig() if value else NoiseConfig.off()
-    if not isinstance(value, Mapping):
-        raise ConfigError("noise", f"expected a table or true/false, got {value!r}", "write [noise] or noise = false")
-    enabled = value.get("enabled", True)
-    if not isinstance(enabled, bool):
-        raise ConfigError("noise.enabled", f"expected true or false, got {enabled!r}", "write enabled = false")
-    if not enabled:
+    if not value.enabled:
         return NoiseConfig.off()
-    parts: dict[str, Any] = {}
-    for key, sub in value.items():
-        if key == "enabled":
-            continue
-        if key not in _NOISE_PARTS:
-            raise ConfigError(f"noise.{key}", "unknown key", f"allowed: enabled, {', '.join(_NOISE_PARTS)}")
-        parts[key] = _noise_part(_NOISE_PARTS[key], sub, f"noise.{key}")
-    return NoiseConfig(True, **parts)
+    return NoiseConfig(True, value.dvl, value.gyro, value.pressure, value.ahrs)
 
 
 def parse_settings(doc: Mapping[str, Any], text: str = "") -> SimSettings:
-    """The ``[sensors]`` and ``[noise]`` tables of a parsed scene document (both optional)."""
-    sensors = doc.get("sensors", {})
-    if not isinstance(sensors, Mapping):
-        raise ConfigError("sensors", "expected a table", "write [sensors]")
-    return SimSettings(_sensors(sensors), _noise(doc.get("noise", True)), text)
+    """The ``[sensors]`` and ``[noise]`` tables of a parsed scene document (both optional).
+
+    The other tables belong to the scene (:func:`auvlink.sim.scene.parse_scene` checks them).
+    """
+    tables = {k: doc[k] for k in ("sensors", "noise") if k in doc}
+    s = validate(SettingsTables, tables)
+    return SimSettings(s.sensors, _noise(s.noise), text)
 
 
 def loads_settings(text: str) -> SimSettings:
     """The settings in scene TOML text."""
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError("scene", f"not valid TOML: {exc}", "fix the TOML syntax") from exc
-    return parse_settings(doc, text)
+    return parse_settings(loads_toml(text, "scene"), text)
+
+
+def check_budget(scene: Scene, settings: SimSettings) -> None:
+    """Refuse a mission whose sensor streams would hold more than :data:`MAX_SAMPLES` samples each."""
+    duration = scene.survey.path_length / scene.survey.speed
+    s = settings.sensors
+    rates = (("sensors.gyro_hz", s.gyro_hz), ("sensors.truth_hz", s.truth_hz), ("sensors.can_hz", s.can_hz),
+             ("sensors.pressure_hz", s.pressure_hz), ("sensors.dvl_hz", s.dvl_hz), ("sonar.fps", scene.sonar.fps))
+    for key, hz in rates:
+        if duration * hz > MAX_SAMPLES:
+            raise ConfigError(key, f"{hz} Hz over a {duration:.0f} s mission is {duration * hz:.3g} samples, "
+                              f"beyond the {MAX_SAMPLES} limit", f"use a rate <= {MAX_SAMPLES / duration:.4g} Hz "
+                              "or a shorter survey")
 
 
 def scene_text(scene: Scene) -> str:

@@ -74,8 +74,8 @@ def vehicle_config_text(scene: Scene, settings: SimSettings) -> str:
     rows.append(f'[sonar]\ndevice = "sonar"\ntilt_deg = {sonar.tilt_deg!r}\nspread_deg = {sonar.spread_deg!r}\n'
                 f"window_start = {sonar.window_start!r}\nwindow_length = {sonar.window_length!r}")
     rows.append('[can]\ndbc = "auvlink_nav.dbc"')
-    site = scene.site
-    rows.append(f"[site]\nlatitude = {site.latitude!r}\nlongitude = {site.longitude!r}\nheight = {site.height!r}")
+    site = scene.datum
+    rows.append(f"[site]\nlatitude = {site.latitude!r}\nlongitude = {site.longitude!r}")
     return "\n\n".join(rows) + "\n"
 
 
@@ -138,7 +138,7 @@ def ground_truth(scene: Scene, settings: SimSettings, duration: float, pose: Tru
         })
     attachments[TRAJECTORY_ATTACHMENT] = npy_bytes(trajectory_array(pose, settings.sensors.start_ns))
     if objects:
-        lat, lon, _ = scene.site.to_geodetic([o["position_ned"] for o in objects])
+        lat, lon, _ = scene.datum.to_geodetic([o["position_ned"] for o in objects])
         for o, a, b in zip(objects, lat.tolist(), lon.tolist(), strict=True):
             o["latitude"], o["longitude"] = a, b
     rate = settings.sensors.truth_hz
@@ -161,7 +161,7 @@ def ground_truth(scene: Scene, settings: SimSettings, duration: float, pose: Tru
         "frames": "world: local NED (m), origin on the surface at the site datum (WGS84, 'site'); body: FRD; "
                   "R_WB = Rz(yaw) Ry(pitch) Rx(roll)",
         "seabed_depth_at_origin_m": float(seabed.depth(0.0, 0.0)),
-        "site": scene.site.to_dict(),
+        "site": scene.datum.to_dict(),
         "gnss": None if scene.gnss is None else {**to_jsonable(asdict(scene.gnss)), **(phases or {})},
     }
     return data, attachments

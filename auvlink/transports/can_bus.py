@@ -37,6 +37,8 @@ from auvlink.transports.base import Transport, url_query
 #: messages drained per read after the first one arrived (bounds one read's latency)
 MAX_BATCH = 512
 _SERIAL_BACKED = ("slcan", "serial", "robotell", "seeedstudio")
+#: query keys that are rates in bit/s (python-can ignores some of them on some interfaces: check here)
+_RATE_KEYS = ("bitrate", "data_bitrate", "tty_baudrate")
 _WORDS = {"true": True, "yes": True, "on": True, "false": False, "no": False, "off": False,
           "none": None}
 
@@ -68,6 +70,11 @@ def parse_can_url(url: str) -> tuple[str, str | None, dict[str, Any]]:
     if interface in _SERIAL_BACKED and channel.startswith("dev/"):
         channel = "/" + channel
     kwargs = {key: _value(text) for key, text in url_query(url).items()}
+    for key in _RATE_KEYS:
+        rate = kwargs.get(key)
+        if key in kwargs and (isinstance(rate, bool) or not isinstance(rate, int) or rate <= 0):
+            raise TransportInitError(f"URL key {key!r} in {url!r}: expected a positive integer (bit/s), "
+                                     f"got {url_query(url)[key]!r}")
     return interface, channel or None, kwargs
 
 

@@ -40,6 +40,11 @@ _PARITY = {"N": serial.PARITY_NONE, "E": serial.PARITY_EVEN, "O": serial.PARITY_
 _STOPBITS = {"1": serial.STOPBITS_ONE, "1.5": serial.STOPBITS_ONE_POINT_FIVE, "2": serial.STOPBITS_TWO}
 _KEYS = ("baudrate", "bytesize", "parity", "stopbits", "xonxoff", "rtscts", "dsrdtr", "exclusive",
          "timeout", "write_timeout")
+#: query keys pyserial's own URL handlers read (serial/urlhandler/protocol_*.py)
+HANDLER_KEYS: dict[str, tuple[str, ...]] = {
+    "loop": ("logging",), "socket": ("logging",), "rfc2217": ("ign_set_control", "logging", "poll_modem", "timeout"),
+    "spy": ("all", "color", "file", "raw"), "hwgrep": ("n", "skip_busy"), "alt": ("class",),
+}
 
 
 def _setting(key: str, value: str) -> Any:
@@ -78,9 +83,14 @@ def parse_serial_url(url: str) -> tuple[str, dict[str, Any]]:
         kwargs.setdefault("write_timeout", kwargs["timeout"])
         del kwargs["timeout"]
     rest = [item for item in query.split("&") if item and item.partition("=")[0] not in _KEYS]
+    scheme = base.partition("://")[0] if "://" in base else "serial"
+    handler = HANDLER_KEYS.get(scheme, ()) if scheme != "serial" else ()
+    for item in rest:
+        key = item.partition("=")[0]
+        if key not in handler and (scheme == "serial" or scheme in HANDLER_KEYS):
+            raise TransportInitError(f"unknown URL key {key!r} in {url!r} (allowed for {scheme}: "
+                                     f"{', '.join(sorted(_KEYS + handler))})")
     if "://" not in base or base.startswith("serial://"):
-        if rest:
-            raise TransportInitError(f"unknown serial setting(s) {rest} in {url!r}; known: {_KEYS}")
         path = base.removeprefix("serial://")
         if not path:
             raise TransportInitError(f"no device path in {url!r}")
