@@ -318,4 +318,8 @@ class Engine:
         return self.georef.track_table(self.nav, (self.t0_ns or 0) * 1e-9, self._finished, step)
 
     def highlight_points(self) -> np.ndarray:
-        return self.rec.raw_points if self.rec is not None else np.zeros((0, 3))
+        """Every highlight-extension point in W (with the anchor; the drift correction is per detection)."""
+        if self.rec is None:
+            return np.zeros((0, 3))
+        pts = self.rec.raw_points
+        return pts + self.georef.shift(0.0, corrected=False)[0] if len(pts) else pts
