@@ -89,7 +89,7 @@ class GnssAnchor:
         self.t_dive: float | None = None
         self.pre = _Fixes()
         self.post = _Fixes()
-        self.counts: dict[str, int] = {"fixes": 0, **{k: 0 for k in REASONS}}
+        self.counts: dict[str, int] = {"received": 0, **{k: 0 for k in REASONS}}
         self._resurfaced_then_dived = False
 
     # ------------------------------------------------------------------ input
@@ -106,7 +106,7 @@ class GnssAnchor:
 
     def reject(self, reason: str, n: int = 1) -> None:
         """Count ``n`` fixes not used, for ``reason`` (one of :data:`REASONS`)."""
-        self.counts["fixes"] += n
+        self.counts["received"] += n
         self.counts[reason] += n
 
     def add_fix(self, t: float, fix_ne: ArrayLike, hdop: float, position_d: ArrayLike | None,
@@ -135,7 +135,7 @@ class GnssAnchor:
         lever = np.asarray(cfg.lever_arm, dtype=np.float64)
         arm = np.asarray(rotation.apply(lever), dtype=np.float64).ravel()[:2] if rotation is not None and \
             np.any(lever) else np.zeros(2)
-        self.counts["fixes"] += 1
+        self.counts["received"] += 1
         if self.t_dive is None or t < self.t_dive:
             self.pre.add(t, fix - p - arm, fix)
         else:
