@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from auvlink.sim.catalog import CLASSES, mesh_for
 from classify.errors import SynthesisError
 from classify.synthesis import MeshSynthesizer, SynthesisSettings
 
@@ -57,10 +58,6 @@ def default_cache_dir() -> Path:
 
 def catalog_meshes() -> tuple[tuple[str, ...], MeshSource]:
     """The simulator's object catalog: its class names and ``mesh_for``."""
-    try:
-        from auvlink.sim.catalog import CLASSES, mesh_for
-    except ImportError as exc:
-        raise SynthesisError("the object catalog auvlink.sim.catalog is not available") from exc
     return tuple(CLASSES), mesh_for
 
 

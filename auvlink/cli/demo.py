@@ -6,6 +6,8 @@ import argparse
 import time
 from pathlib import Path
 
+from auvlink.sim.scene import load_default_scene, load_scene
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("demo-out"), help="output folder (default demo-out)")
@@ -14,9 +16,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # lazy: Open3D, trimesh, SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.cli.replay import process, scores_line
     from auvlink.sim.mission import simulate_to_log
-    from auvlink.sim.scene import load_default_scene, load_scene
 
     scene = load_scene(args.scene) if args.scene else load_default_scene()
     args.out.mkdir(parents=True, exist_ok=True)

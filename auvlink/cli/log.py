@@ -14,6 +14,10 @@ import sys
 from pathlib import Path
 
 from auvlink.jsonutil import to_jsonable
+from logs_format.export import export_log
+from logs_format.importers import import_can_log, import_serial_capture, is_can_log
+from logs_format.info import format_info, log_info
+from logs_format.profile import LogError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -40,8 +44,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from logs_format.info import format_info, log_info
-
     info = log_info(args.log, decode=not args.no_decode, gap_factor=args.gap_factor)
     if args.json:
         print(json.dumps(to_jsonable(info), indent=2, allow_nan=False))
@@ -51,8 +53,6 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from logs_format.export import export_log
-
     channels = [c for c in args.channels.split(",") if c] if args.channels else None
     result = export_log(args.log, args.out, channels=channels, sonar_every=args.sonar_every,
                         max_sonar_frames=args.max_sonar, png=not args.no_png)
@@ -66,9 +66,6 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    from logs_format.importers import import_can_log, import_serial_capture, is_can_log
-    from logs_format.profile import LogError
-
     if not Path(args.file).is_file():
         raise LogError(f"no such file: {args.file}")
     if args.format is None:

@@ -31,9 +31,11 @@ from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.outputs import DetectionStream, write_outputs
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
-from auvlink.pipeline.process import LIVE_META, MissionResult, result_of
+from auvlink.pipeline.process import LIVE_META, result_of
+from auvlink.pipeline.results import MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.records import Sample
+from logs_format.writer import MissionLogWriter
 
 SONAR_FORMATS = ("didson", "aris")
 
@@ -105,8 +107,6 @@ class LiveRun:
 
     # ------------------------------------------------------------------ the run
     def run(self) -> MissionResult:
-        from logs_format.writer import MissionLogWriter
-
         t_start = time.perf_counter()
         try:
             self.out_dir.mkdir(parents=True, exist_ok=True)

@@ -14,8 +14,9 @@ from typing import Any
 import numpy as np
 
 from auvlink.jsonutil import to_jsonable
-from auvlink.pipeline.process import Detection, MissionResult
+from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.scoring import score_detections
+from recon.ply import write_ply
 
 
 def object_ply_name(det: Detection) -> str:
@@ -33,8 +34,6 @@ class DetectionStream:
         self.count = 0
 
     def __call__(self, det: Detection) -> None:
-        from recon.ply import write_ply
-
         name = object_ply_name(det)
         write_ply(self.out_dir / name, det.points)
         with open(self.path, "a") as f:
@@ -45,8 +44,6 @@ class DetectionStream:
 
 def write_outputs(result: MissionResult, out_dir: Path) -> dict[str, Any]:
     """Write the files of ARCHITECTURE.md's output folder; returns the summary dict."""
-    from recon.ply import write_ply
-
     out_dir.mkdir(parents=True, exist_ok=True)
     obj_dir = out_dir / "objects"
     obj_dir.mkdir(exist_ok=True)
