@@ -103,13 +103,13 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     return result_of(engine, log, timings, stats, loss, mode="replay", drops=skipped)
 
 
-def dropped_live(reader: MissionLogReader) -> set[tuple[Any, ...]]:
+def dropped_live(reader: MissionLogReader) -> set[tuple[str, int] | tuple[str, int, int]]:
     """The frames a live run dropped (its ``events`` channel): ``(device, sample ordinal in that device's
     stream)``; ``(device, -1, receive time ns)`` for events without the ordinal (logs of earlier versions:
     frames read together share that time, so these may skip a frame live kept)."""
     if "events" not in reader.channels:
         return set()
-    out: set[tuple[Any, ...]] = set()
+    out: set[tuple[str, int] | tuple[str, int, int]] = set()
     for msg in reader.messages(channels=["events"]):
         try:
             ev = json.loads(msg.data)
