@@ -27,7 +27,15 @@ from typing import Any
 import numpy as np
 from _common import best_time, smoke
 
-from auvlink.evaluation.simeval import SimFrames, cluster_errors, evaluate, object_points, reconstruct, simulate
+from auvlink.evaluation.simeval import (
+    SimFrames,
+    cluster_errors,
+    evaluate,
+    nav_drift,
+    object_points,
+    reconstruct,
+    simulate,
+)
 from auvlink.pipeline.engine import default_recon_config
 from recon.cluster import ClusterConfig, cluster
 from recon.highlight import extract
@@ -215,7 +223,6 @@ def nav(quick: bool) -> dict[str, Any]:
     """Dead-reckoning drift on simulated logs replayed through the codecs: a 4-line lawnmower (1,019 m)
     with the default sensor noise and with it off, and one straight 1 km line with the noise off (what is
     left is the wire's resolution: PD0 velocity in mm/s, heading in 0.01 deg)."""
-    from auvlink.evaluation.simeval import nav_drift
     from auvlink.sim.scene import loads_scene
 
     text = NAV_SCENE.replace("lines = 4", "lines = 1") if smoke() else NAV_SCENE

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from tqdm import tqdm
 
 from auvlink.sim.catalog import CLASSES, mesh_for
 from classify.errors import SynthesisError
@@ -97,8 +98,6 @@ def synthesize_class(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArr
 def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: SynthesisSettings,
                    cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
     """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given)."""
-    from tqdm import tqdm
-
     pts, labels, meta = [], [], []
     for label, name in enumerate(tqdm(class_names, desc="synthesize", disable=not progress, leave=False)):
         vertices, triangles = mesh_for(name)

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm import tqdm
 
 from auvlink.sim.emit import Event, block_events, device_formats
 from auvlink.sim.noise import NoiseConfig, SimError
@@ -181,8 +182,6 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
     if len(topic_t):
         pose = run.trajectory.true_pose(topic_t)
         positions, quats = pose.position, pose.rotation().as_quat()
-    from tqdm import tqdm
-
     out = Path(out_path)
     j = 0  # next truth pose
     with contextlib.ExitStack() as stack:  # the pool forks before any thread (tqdm's monitor) starts
