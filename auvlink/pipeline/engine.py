@@ -204,8 +204,7 @@ class Engine:
             first = group[int(sel[0])][1]
             self.geometry = sonar_geometry(self.setup, first.azimuths, first.window)
             self.rec = Reconstructor(self.geometry, self.nav, self.recon_config)
-        g = self.geometry
-        assert g is not None
+        g = self.rec.geometry
         imgs = [group[i][1].image for i in sel]
         good = [k for k, im in enumerate(imgs) if im.shape == (g.n_bins, g.n_beams) and im.dtype == np.uint8]
         self.counts["frames_bad_shape"] = self.counts.get("frames_bad_shape", 0) + len(imgs) - len(good)
