@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 import torch
 from torch import Tensor, nn
+from tqdm import tqdm
 
 from classify.dataset import stratified_split
 from classify.pointnet import default_device
@@ -117,8 +118,6 @@ class CNNResult:
 
 def train_cnn(data: ImageSet, cfg: CNNConfig, progress: bool = True,
               device: torch.device | None = None) -> CNNResult:
-    from tqdm import tqdm
-
     if cfg.threads > 0:
         torch.set_num_threads(cfg.threads)
     device = device or default_device()

@@ -20,7 +20,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
+from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
+from auvlink.sim.sonar_render import SonarRenderer
 from classify.baseline2d import ImageSet
 
 
@@ -62,11 +65,6 @@ def render_images(class_names: Sequence[str], settings: ImageSettings, progress:
 
 
 def _render(class_names: Sequence[str], settings: ImageSettings, progress: bool) -> ImageSet:
-    from tqdm import tqdm
-
-    from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
-    from auvlink.sim.sonar_render import SonarRenderer
-
     images, labels = [], []
     seabed = Seabed(depth=settings.depth_m, roughness=settings.roughness_m)
     jobs = [(c, h, t, k) for c in range(len(class_names)) for h in settings.headings_deg

@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 import torch
 from torch import nn
+from tqdm import tqdm
 
 from classify.augment import AugmentConfig, augment_batch, normalize_batch
 from classify.dataset import CloudSet, stratified_split
@@ -102,8 +103,6 @@ def _val(model: PointNet, pts: npt.NDArray[np.float32], labels: npt.NDArray[np.i
 def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
           device: torch.device | None = None) -> TrainResult:
     """Train a PointNet on ``data``; returns the best model (by validation accuracy)."""
-    from tqdm import tqdm
-
     if cfg.threads > 0:
         torch.set_num_threads(cfg.threads)
     device = device or default_device()

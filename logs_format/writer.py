@@ -37,11 +37,12 @@ from typing import TYPE_CHECKING, Any
 
 from mcap.writer import LIBRARY_IDENTIFIER, Writer
 
-from auvlink import __version__, formats
+from auvlink import formats
 from auvlink.atomic import partial_path, write_target
 from auvlink.clock import now_ns
 from auvlink.errors import UnknownFormatError
 from auvlink.jsonutil import dumps
+from auvlink.version import __version__
 from logs_format.profile import (
     JSON_MESSAGE_ENCODING,
     JSON_SCHEMA_ENCODING,

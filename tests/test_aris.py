@@ -14,7 +14,10 @@ from hypothesis import strategies as st
 
 from auvlink import formats
 from auvlink.codecs import aris
-from auvlink.codecs.aris_defs import (
+from auvlink.decode_file import decode_bytes
+from auvlink.errors import DecodeError
+from auvlink.framing.aris import ArisFramer
+from auvlink.framing.aris_defs import (
     FILE_HEADER_DTYPE,
     FRAME_HEADER_DTYPE,
     PING_MODE_BEAMS,
@@ -25,9 +28,6 @@ from auvlink.codecs.aris_defs import (
     beam_tables,
     offset,
 )
-from auvlink.decode_file import decode_bytes
-from auvlink.errors import DecodeError
-from auvlink.framing.aris import ArisFramer
 
 SOUND_SPEED = 1435.93
 

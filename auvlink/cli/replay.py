@@ -34,6 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def process(log: Path, out: Path, *, speed: float | None, model: Path | None, classify: bool,
             report: bool, progress: bool, config: Path | None = None) -> dict[str, object]:
+    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
     from auvlink.pipeline.report import write_report

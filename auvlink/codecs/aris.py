@@ -1,7 +1,7 @@
 """Sound Metrics ARIS recordings (``.aris``) and frames: 1024-byte headers + a beams x samples image.
 
 Specification followed: SoundMetrics aris-file-sdk (MIT licence): ``type-definitions/C/*Header.h``
-(layouts, :mod:`auvlink.codecs.aris_defs`), ``docs/understanding-aris-data.md`` (file structure,
+(layouts, :mod:`auvlink.framing.aris_defs`), ``docs/understanding-aris-data.md`` (file structure,
 ranges, beam order), ``common-code/FrameFuncs.c`` (ping mode -> beams), ``beam-width-metrics``.
 
 * A file is a :class:`ArisFileHeader` then frames; a frame is a 1024-byte header then
@@ -32,7 +32,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.codecs.aris_defs import (
+from auvlink.codecs.aris_lib import ArisFrame, HeaderValue, decode_as, encode_frame
+from auvlink.errors import DecodeError, EncodeError
+from auvlink.formats import WireFormat
+from auvlink.framing.aris import CUT, DROP, FRAME, WAIT, ArisFramer, frame_length, scan
+from auvlink.framing.aris_defs import (
     FILE_HEADER_DTYPE,
     FILE_HEADER_SIZE,
     PING_MODE_BEAMS,
@@ -41,10 +45,6 @@ from auvlink.codecs.aris_defs import (
     beam_table_name,
     beam_tables,
 )
-from auvlink.codecs.aris_lib import ArisFrame, HeaderValue, decode_as, encode_frame
-from auvlink.errors import DecodeError, EncodeError
-from auvlink.formats import WireFormat
-from auvlink.framing.aris import CUT, DROP, FRAME, WAIT, ArisFramer, frame_length, scan
 
 __all__ = [
     "PING_MODE_BEAMS", "WIRE_FORMAT", "ArisFile", "ArisFileHeader", "ArisFrame", "beam_azimuths_rad",

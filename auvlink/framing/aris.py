@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from auvlink.codecs.aris_defs import (
+from auvlink.framing.aris_defs import (
     FRAME_HEADER_SIZE,
     MAX_SAMPLES_PER_BEAM,
     OFF_PING_MODE,

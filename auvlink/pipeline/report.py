@@ -8,10 +8,10 @@ import html
 from pathlib import Path
 from typing import Any
 
-from auvlink import __version__
 from auvlink.atomic import write_text
 from auvlink.pipeline import plots
-from auvlink.pipeline.process import MissionResult
+from auvlink.pipeline.results import MissionResult
+from auvlink.version import __version__
 
 _CSS = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}
 table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}

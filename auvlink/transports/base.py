@@ -9,7 +9,7 @@ URL forms (the scheme picks the backend module, imported only when used):
 ``tcp://127.0.0.1:5000``            TCP client (sonar frames)
 ``tcp-listen://127.0.0.1:5000``     TCP server: accepts one client at a time
 ``can://virtual/chan0``             python-can bus: ``can://INTERFACE/CHANNEL?bitrate=..``
-``pty:///tmp/auv/fog``              the instrument's end of a new pty (:mod:`auvlink.virtual`)
+``pty:///tmp/auv/fog``              the instrument's end of a new pty (:mod:`auvlink.virtual_pty`)
 ==================================  =======================================================
 
 The base class owns policy: open/close, the context manager, byte counters and timeouts.
@@ -35,7 +35,7 @@ _SCHEMES: dict[str, str] = {
     "tcp": "auvlink.transports.tcp:TcpClientTransport",
     "tcp-listen": "auvlink.transports.tcp:TcpServerTransport",
     "can": "auvlink.transports.can_bus:CanTransport",
-    "pty": "auvlink.virtual:PtyTransport",
+    "pty": "auvlink.virtual_pty:PtyTransport",
 }
 
 
