@@ -102,25 +102,55 @@ class _Prefetch:
         self._thread.join()
 
 
+#: no chunk may claim more uncompressed bytes than this (the writer's chunks are a few MB)
+MAX_CHUNK_BYTES = 1 << 30
+#: the most a compressed byte can expand to: zstd RLE blocks (4 bytes per 128 KiB), lz4's 255:1 matches
+_MAX_RATIO = {"zstd": 1 << 15, "lz4": 256}
+_SLACK = 1 << 17  # bytes: one block of headroom for tiny inputs
+
+
+def check_claim(ref: ChunkRef) -> None:
+    """Refuse a chunk whose claimed uncompressed size is over the ceiling or more than its compressed
+    bytes can expand to (a crafted or damaged header), before anything is allocated."""
+    usize = ref.uncompressed_size
+    if usize > MAX_CHUNK_BYTES:
+        raise BadChunk(f"claims {usize} uncompressed bytes, over the {MAX_CHUNK_BYTES}-byte ceiling")
+    if ref.compression == "" and usize != ref.data_length:
+        raise BadChunk(f"claims {usize} bytes but holds {ref.data_length} uncompressed")
+    ratio = _MAX_RATIO.get(ref.compression)
+    if ratio is not None and usize > ratio * ref.data_length + _SLACK:
+        raise BadChunk(f"claims {usize} uncompressed bytes from {ref.data_length} {ref.compression} bytes: "
+                       "more than the format can expand to")
+
+
+def _bounded(ref: ChunkRef, data: bytes, zstd: zstandard.ZstdDecompressor) -> bytes:
+    """Decompress at most ``uncompressed_size + 1`` bytes (one more shows a chunk that holds more than
+    it claims), streaming: memory follows the checked claim, never the frame's own content size."""
+    limit = ref.uncompressed_size + 1
+    if ref.compression == "zstd":
+        with zstd.stream_reader(data, read_across_frames=True) as reader:
+            return reader.read(limit)
+    if ref.compression == "lz4":
+        return lz4.frame.LZ4FrameDecompressor().decompress(data, max_length=limit)
+    if ref.compression == "":
+        return data
+    raise BadChunk(f"unsupported compression {ref.compression!r}")
+
+
 def inflate(ref: ChunkRef, data: bytes, zstd: zstandard.ZstdDecompressor) -> bytes:
-    """The records of a chunk from its stored bytes: decompressed, size and CRC checked."""
+    """The records of a chunk from its stored bytes: size claim bounded, decompressed, size and CRC checked."""
     if len(data) != ref.data_length:
         raise BadChunk("short read")
     if ref.compression == "message":
         return _REC.pack(_OP_MESSAGE, ref.data_length) + data
+    check_claim(ref)
     try:
-        if ref.compression == "zstd":
-            out = zstd.decompress(data, max_output_size=ref.uncompressed_size)
-        elif ref.compression == "lz4":
-            out = lz4.frame.decompress(data)
-        elif ref.compression == "":
-            out = data
-        else:
-            raise BadChunk(f"unsupported compression {ref.compression!r}")
-    except (zstandard.ZstdError, RuntimeError, ValueError) as exc:
+        out = _bounded(ref, data, zstd)
+    except (zstandard.ZstdError, RuntimeError, ValueError, EOFError) as exc:
         raise BadChunk(f"decompression failed: {exc}") from exc
     if len(out) != ref.uncompressed_size:
-        raise BadChunk("uncompressed size mismatch")
+        raise BadChunk(f"uncompressed size mismatch: {len(out)}{'+' if len(out) > ref.uncompressed_size else ''}"
+                       f" bytes, the header claims {ref.uncompressed_size}")
     if ref.uncompressed_crc and zlib.crc32(out) != ref.uncompressed_crc:
         raise BadChunk("CRC mismatch")
     return out

@@ -119,7 +119,7 @@ def log_info(
             "metadata": log.metadata(decode_json=True),
             "attachments": [{"name": a.name, "media_type": a.media_type, "size": a.size}
                             for a in log.attachments()],
-            "loss": {**log.loss.as_dict(), "summary": log.loss.describe()},
+            "loss": log.loss.to_json(),
         }
 
 

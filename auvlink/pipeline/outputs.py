@@ -70,7 +70,7 @@ def write_outputs(result: MissionResult, out_dir: Path) -> dict[str, Any]:
         "engine": result.engine,
         "recon": result.recon_stats,
         "devices": result.replay_stats,
-        "log_loss": result.loss,
+        "log_loss": result.loss_json(),
         "scores": score_detections(result),
     }
     (out_dir / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=2, allow_nan=False) + "\n")

@@ -86,12 +86,20 @@ class MissionResult:
     latency: dict[str, dict[str, Any]] = field(default_factory=dict)
     replay_stats: dict[str, Any] = field(default_factory=dict)
     recon_stats: dict[str, Any] = field(default_factory=dict)
-    loss: str = ""
+    loss: dict[str, Any] | str = ""  # replay: the log's loss report (JSON); live: why writing the log failed
     highlight_points: np.ndarray | None = None
     drops: dict[str, int] = field(default_factory=dict)
     events: list[dict[str, Any]] = field(default_factory=list)
     mode: str = "replay"
     engine: dict[str, Any] = field(default_factory=dict)
+
+    def loss_json(self) -> dict[str, Any]:
+        """What the log lost, as one JSON object: replay gives the reader's loss report (``state``,
+        ``messages_lost``, ``seconds_lost``, ``spans``, ...); live gives ``{}``, or ``state`` =
+        ``write_failed`` with the reason when writing the log failed."""
+        if isinstance(self.loss, dict):
+            return self.loss
+        return {"state": "write_failed", "summary": self.loss} if self.loss else {}
 
 
 def live_settings(meta: dict[str, dict[str, Any]]) -> tuple[dict[str, Any], int | None]:
@@ -163,7 +171,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
         decode_s += time.perf_counter() - t_read
         engine.finish()
         stats = replay.stats()
-        loss = str(getattr(replay, "loss", "") or "")
+        loss = replay.loss.to_json()  # what the log lost (logs_format.loss.LossReport), as JSON
     bar.close()
     timings = {"start_up_s": warm_s, "replay_decode_s": decode_s, "navigation_s": engine.times.total("navigation"),
                "reconstruction_s": engine.times.total("reconstruction"),
@@ -199,7 +207,8 @@ def dropped_live(reader: Any) -> set[tuple[Any, ...]]:
 ADVANCE_NS = 4_000_000_000  # replay hands samples to the engine in 4 s blocks (results do not depend on it)
 
 
-def result_of(engine: Any, log: Path | None, timings: dict[str, float], stats: dict[str, Any], loss: str,
+def result_of(engine: Any, log: Path | None, timings: dict[str, float], stats: dict[str, Any],
+              loss: dict[str, Any] | str,
               mode: str, drops: dict[str, int] | None = None, events: list[dict[str, Any]] | None = None
               ) -> MissionResult:
     return MissionResult(log=log, setup=engine.setup, detections=engine.detections, track=engine.track(),
