@@ -150,8 +150,9 @@ def _from_summary(f: BinaryIO, index: LogIndex, walk: _Walk, summary: Summary) -
     """Chunks, metadata and attachments the summary indexes but the walk did not find."""
     for ci in summary.chunk_indexes:
         off, span = ci.chunk_start_offset, ci.chunk_length
-        if off in walk.chunks:
-            continue
+        if off in walk.chunks or any(off < p < off + span for p in walk.chunks if walk.chunks[p].compression
+                                     != "message"):
+            continue  # the walk found this chunk, or a whole chunk where the index says this one lies
         data_offset = off + 9 + CHUNK_HEAD.size + len(ci.compression.encode()) + 8
         f.seek(off + 9 + 24)
         crc_bytes = f.read(4)

@@ -20,6 +20,9 @@ from logs_format.records import MAGIC, REC, read_record
 
 _FOOTER = struct.Struct("<QQI")  # summary start, summary offset start, summary crc
 FOOTER_BYTES = 9 + _FOOTER.size + len(MAGIC)  # the footer record and the closing magic
+_SUMMARY_OPS = frozenset(int(op) for op in (
+    Opcode.SCHEMA, Opcode.CHANNEL, Opcode.STATISTICS, Opcode.CHUNK_INDEX, Opcode.METADATA_INDEX,
+    Opcode.ATTACHMENT_INDEX, Opcode.SUMMARY_OFFSET))
 
 
 @dataclass
@@ -42,6 +45,19 @@ class Summary:
         return self.complete and self.start > 0
 
 
+def _crc(f: BinaryIO, start: int, end: int, footer_head: bytes) -> int:
+    """CRC-32 of the file's bytes ``[start, end)`` followed by ``footer_head``, read in blocks."""
+    crc, pos = 0, start
+    f.seek(start)
+    while pos < end:
+        block = f.read(min(1 << 20, end - pos))
+        if not block:
+            break
+        crc = zlib.crc32(block, crc)
+        pos += len(block)
+    return zlib.crc32(footer_head, crc)
+
+
 def read_summary(f: BinaryIO, size: int) -> Summary:
     """The footer and (when trustworthy) the summary section of a file of ``size`` bytes."""
     out = Summary()
@@ -60,17 +76,16 @@ def read_summary(f: BinaryIO, size: int) -> Summary:
     if not len(MAGIC) <= start <= footer_pos:
         out.problem = f"footer points the summary at byte {start}, outside the file"
         return out
-    if crc:
-        f.seek(start)
-        covered = f.read(footer_pos - start) + tail[: 9 + 16]
-        if zlib.crc32(covered) != crc:
-            out.problem = "summary CRC mismatch"
-            return out
+    if crc and _crc(f, start, footer_pos, tail[: 9 + 16]) != crc:
+        out.problem = "summary CRC mismatch"
+        return out
     pos = start
     while pos < footer_pos:
         rec = read_record(f, pos, footer_pos)
-        if rec is None:
-            out.problem = f"damaged summary record at byte {pos}"
+        if rec is None or (rec.op not in _SUMMARY_OPS and rec.op < 0x80):
+            what = "damaged" if rec is None else f"data record (opcode 0x{rec.op:02X}) in the"
+            out.problem = f"{what} summary record at byte {pos}: the summary is not used"
+            out.chunk_indexes.clear()
             return out
         if rec.op == Opcode.CHUNK_INDEX:
             out.chunk_indexes.append(rec.item)
