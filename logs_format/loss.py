@@ -170,7 +170,7 @@ class LossReport:
     def describe(self) -> str:
         """One line for people: what was lost, in seconds and messages."""
         if self.complete and not self.lossy:
-            return "complete"
+            return f"complete; {self.reason}" if self.reason else "complete"
         parts = []
         inner = [s for s in self.spans if s.kind != CUT_OFF]
         if inner:

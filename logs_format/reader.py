@@ -158,9 +158,8 @@ class MissionLogReader:
             return []
         for s in schemas:
             self._schemas[s.id] = s
-        for c in channels:
-            if c.id not in self._channels:
-                self._add_channel(c)
+        for c in channels:  # a chunk's own definitions are CRC-checked: they win over top-level ones
+            self._add_channel(c)
         return messages
 
     def _wanted(self, names: set[str] | None) -> set[int] | None:

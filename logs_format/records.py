@@ -52,6 +52,16 @@ _PARSERS: dict[int, Any] = {
     Opcode.ATTACHMENT_INDEX: AttachmentIndex,
 }
 _RESYNC_OPS = np.array(sorted(KNOWN - {int(Opcode.HEADER)}), dtype=np.uint8)
+# the shortest body each record kind can have (the fixed fields, empty strings and maps); others: never
+_MIN_BODY = np.full(256, np.iinfo(np.uint64).max, dtype=np.uint64)
+for _op, _n in ((Opcode.FOOTER, 20), (Opcode.SCHEMA, 14), (Opcode.CHANNEL, 16), (Opcode.MESSAGE, 22),
+                (Opcode.CHUNK, 40), (Opcode.MESSAGE_INDEX, 6), (Opcode.CHUNK_INDEX, 64), (Opcode.ATTACHMENT, 36),
+                (Opcode.ATTACHMENT_INDEX, 48), (Opcode.STATISTICS, 46), (Opcode.METADATA, 8),
+                (Opcode.METADATA_INDEX, 20), (Opcode.SUMMARY_OFFSET, 17), (Opcode.DATA_END, 4)):
+    _MIN_BODY[int(_op)] = _n
+_NEXT_OK = np.zeros(256, dtype=bool)  # a byte that can start the record after a candidate
+_NEXT_OK[sorted(KNOWN)] = True
+_NEXT_OK[0x80:] = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -215,7 +225,8 @@ def read_record(f: BinaryIO, pos: int, limit: int) -> Rec | None:
 
 
 def _header_fits(f: BinaryIO, pos: int, limit: int, size: int) -> bool:
-    """A plausible next record header at ``pos`` (or the limit itself, or a file cut inside it)."""
+    """A plausible next record header at ``pos``: a known opcode and a length that fits in the file or is a
+    sane size (the file was cut inside that record); or the limit itself; or a file cut inside the header."""
     if pos == limit:
         return True
     f.seek(pos)
@@ -223,7 +234,8 @@ def _header_fits(f: BinaryIO, pos: int, limit: int, size: int) -> bool:
     if len(head) < 9:
         return pos + len(head) == size
     op, length = REC.unpack(head)
-    return (op in KNOWN or op >= 0x80) and pos + 9 + length <= size
+    # one that runs past the end of the file is the partial last record of a cut-off log
+    return (op in KNOWN or op >= 0x80) and (pos + 9 + length <= size or length <= MAX_SMALL_RECORD << 6)
 
 
 def plausible(f: BinaryIO, pos: int, limit: int, size: int) -> Rec | None:
@@ -247,11 +259,14 @@ def resync(f: BinaryIO, start: int, limit: int, size: int) -> Rec | None:
         cand = np.flatnonzero(np.isin(buf[:n], _RESYNC_OPS))
         if cand.size:
             lengths = buf[cand[:, None] + np.arange(1, 9)].copy().view("<u8").ravel()
-            room = (limit - pos - 9) - cand.astype(np.int64)  # bytes a record starting there may hold
-            fits = room >= 0
-            fits[fits] = lengths[fits] <= room[fits].astype(np.uint64)
-            ok = cand[fits]
-            for c in ok.tolist():
+            room = np.maximum((limit - pos - 9) - cand.astype(np.int64), 0).astype(np.uint64)
+            sel = np.flatnonzero((lengths <= room) & (lengths >= _MIN_BODY[buf[cand]]))  # rare in data
+            cand, lengths = cand[sel], lengths[sel]
+            nxt = cand + 9 + lengths.astype(np.int64)  # where the record after the candidate starts
+            seen = nxt < len(buf)
+            keep = np.ones(len(cand), dtype=bool)
+            keep[seen] = _NEXT_OK[buf[nxt[seen]]]  # a byte that can be an opcode, when in the window
+            for c in cand[keep].tolist():
                 rec = plausible(f, pos + c, limit, size)
                 if rec is not None:
                     return rec

@@ -72,12 +72,15 @@ class _Walk:
     tail_chunk: ChunkRef | None = None  # the header of a chunk the file ends inside
     end: int = 0  # end of the last whole record
     in_summary: bool = False  # the walk passed a DataEnd record
+    distrust_summary: bool = False  # the footer's summary failed its checks
 
 
 def _take(index: LogIndex, walk: _Walk, rec: Rec) -> None:
     op, item = rec.op, rec.item
     if op == Opcode.DATA_END:
         walk.in_summary = True
+    elif walk.in_summary and walk.distrust_summary:
+        return  # a summary that failed its CRC: its schemas and channels are not taken either
     elif op == Opcode.SCHEMA:
         index.schemas[item.id] = item
     elif op == Opcode.CHANNEL:
@@ -109,8 +112,8 @@ def _as_chunk(f: BinaryIO, pos: int, limit: int, size: int) -> Rec | None:
     return rec if ref.end == limit or plausible(f, ref.end, limit, size) is not None else None
 
 
-def _walk(f: BinaryIO, index: LogIndex, start: int, limit: int, size: int) -> _Walk:
-    walk = _Walk(end=start)
+def _walk(f: BinaryIO, index: LogIndex, start: int, limit: int, size: int, distrust_summary: bool) -> _Walk:
+    walk = _Walk(end=start, distrust_summary=distrust_summary)
     pos = start
     while pos < limit:
         rec = read_record(f, pos, limit)
@@ -242,7 +245,7 @@ def scan(f: BinaryIO, size: int) -> LogIndex:
         return index
     summary = read_summary(f, size)
     limit = summary.start if summary.usable else summary.footer_pos if summary.complete else size
-    walk = _walk(f, index, 8, limit, size)
+    walk = _walk(f, index, 8, limit, size, distrust_summary=bool(summary.problem))
     if summary.usable:
         index.schemas.update(summary.schemas)
         index.channels.update(summary.channels)
