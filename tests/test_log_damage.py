@@ -229,7 +229,7 @@ def test_replay_of_a_damaged_simulated_log(tmp_path: Path, sim_log: Path,
     data[ref.data_offset + 1000 : ref.data_offset + 1100] = bytes(100)  # and its data: the chunk is lost
     bad = put(tmp_path / "bad.mcap", data)
     out = tmp_path / "out"
-    assert main(["replay", str(bad), "--out", str(out), "--no-classify", "--no-report", "--quiet"]) == 0
+    assert main(["replay", str(bad), "--out", str(out), "--no-classify", "--quiet"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     warning = [line for line in err if "warning" in line]
     assert len(warning) == 1 and str(bad) in warning[0] and "messages lost" in warning[0], err
@@ -237,6 +237,9 @@ def test_replay_of_a_damaged_simulated_log(tmp_path: Path, sim_log: Path,
     assert isinstance(loss, dict) and loss["state"] == "damaged" and loss["damaged_chunks"] == 1
     assert 0 < loss["messages_lost"] < total and loss["seconds_lost"] > 0
     assert loss["summary"].startswith("damaged: 1 damaged chunk(s) skipped")
+    report = (out / "report.html").read_text()
+    assert "Log integrity: damaged: 1 damaged chunk(s) skipped" in report and "<td>damaged_chunk</td>" in report
+    assert "LossReport(" not in report
     assert main(["replay", str(sim_log), "--out", str(tmp_path / "ok"), "--no-classify", "--no-report",
                  "--quiet"]) == 0
     assert "warning" not in capsys.readouterr().err
