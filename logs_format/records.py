@@ -224,7 +224,7 @@ def read_record(f: BinaryIO, pos: int, limit: int) -> Rec | None:
     return None if item is None else Rec(op, pos, end, item)
 
 
-def _header_fits(f: BinaryIO, pos: int, limit: int, size: int) -> bool:
+def header_fits(f: BinaryIO, pos: int, limit: int, size: int) -> bool:
     """A plausible next record header at ``pos``: a known opcode and a length that fits in the file or is a
     sane size (the file was cut inside that record); or the limit itself; or a file cut inside the header."""
     if pos == limit:
@@ -241,7 +241,7 @@ def _header_fits(f: BinaryIO, pos: int, limit: int, size: int) -> bool:
 def plausible(f: BinaryIO, pos: int, limit: int, size: int) -> Rec | None:
     """:func:`read_record` at ``pos``, kept only when a plausible record header follows it."""
     rec = read_record(f, pos, limit)
-    if rec is None or not _header_fits(f, rec.end, limit, size):
+    if rec is None or not header_fits(f, rec.end, limit, size):
         return None
     return rec
 

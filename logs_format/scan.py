@@ -34,11 +34,13 @@ from logs_format.records import (
     IndexRun,
     Rec,
     chunk_at,
-    plausible,
+    header_fits,
     read_record,
     resync,
 )
 from logs_format.summary import Summary, read_summary
+
+_CHUNK_OP = bytes([Opcode.CHUNK])
 
 __all__ = ["MAGIC", "AttachmentRef", "ChunkRef", "IndexRun", "LogIndex", "LossReport", "scan"]
 
@@ -108,8 +110,21 @@ def _as_chunk(f: BinaryIO, pos: int, limit: int, size: int) -> Rec | None:
     ref = chunk_at(f, pos)
     if ref is None or ref.end > limit:
         return None
-    rec = Rec(Opcode.CHUNK, pos, ref.end, ref)
-    return rec if ref.end == limit or plausible(f, ref.end, limit, size) is not None else None
+    return Rec(Opcode.CHUNK, pos, ref.end, ref) if header_fits(f, ref.end, limit, size) else None
+
+
+def _chunk_inside(f: BinaryIO, rec: Rec, limit: int, size: int) -> Rec | None:
+    """A chunk that starts inside a weakly checked record (a top-level message or a private record, whose
+    body nothing verifies): such a record with a damaged length must not swallow a whole chunk."""
+    f.seek(rec.pos + 1)
+    body = f.read(rec.end - rec.pos - 1)
+    at = body.find(_CHUNK_OP)
+    while at >= 0:
+        found = _as_chunk(f, rec.pos + 1 + at, limit, size)
+        if found is not None:
+            return found
+        at = body.find(_CHUNK_OP, at + 1)
+    return None
 
 
 def _walk(f: BinaryIO, index: LogIndex, start: int, limit: int, size: int, distrust_summary: bool) -> _Walk:
@@ -123,11 +138,17 @@ def _walk(f: BinaryIO, index: LogIndex, start: int, limit: int, size: int, distr
             found = resync(f, pos + 1, limit, size)
             if found is None:
                 walk.tail = pos
-                head = chunk_at(f, pos)
-                walk.tail_chunk = head if head is not None and not walk.in_summary else None
+                f.seek(pos)
+                head = chunk_at(f, pos) if f.read(1) == bytes([Opcode.CHUNK]) else None
+                walk.tail_chunk = head if not walk.in_summary else None
                 break
             walk.gaps.append((pos, found.pos))
             rec = found
+        if rec.op == Opcode.MESSAGE or rec.op >= 0x80:
+            inner = _chunk_inside(f, rec, limit, size)
+            if inner is not None:
+                walk.gaps.append((rec.pos, inner.pos))
+                rec = inner
         _take(index, walk, rec)
         pos = walk.end = rec.end
     return walk
