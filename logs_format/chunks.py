@@ -23,7 +23,7 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Schema
 
 from logs_format.profile import CH_DEVICE, CH_FORMAT
-from logs_format.scan import ChunkRef
+from logs_format.records import ChunkRef
 
 _REC = struct.Struct("<BQ")
 _MSG_HEAD = struct.Struct("<HIQQ")

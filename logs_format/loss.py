@@ -6,7 +6,8 @@ Every stretch of the file whose messages could not be read is one :class:`LostSp
   decompression, size claim or layout failed; its bytes and, from its message index records when they
   survived, its message count are known.
 * ``unreadable``: bytes where no record parses (a damaged record header, garbage, zeros), skipped by
-  resynchronising on the next record that parses (plausible length, consistent body).
+  resynchronising on the next record that parses (plausible length, consistent body), and records
+  nothing can verify there (a top-level message in a file of chunks, see :mod:`logs_format.walk`).
 * ``cut_off``: the end of the file after the last whole record (a log cut off mid-write).
 
 Times are log times (UTC ns). A span's time range comes from the chunk's own header or index entry,

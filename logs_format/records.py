@@ -19,6 +19,7 @@ from io import BytesIO
 from typing import Any, BinaryIO
 
 import numpy as np
+import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import (
@@ -238,12 +239,27 @@ def header_fits(f: BinaryIO, pos: int, limit: int, size: int) -> bool:
     return (op in KNOWN or op >= 0x80) and (pos + 9 + length <= size or length <= MAX_SMALL_RECORD << 6)
 
 
+def chunk_verifies(f: BinaryIO, ref: ChunkRef) -> bool:
+    """True when the chunk's data decompresses (bounded) to its claimed size and CRC."""
+    from logs_format.chunks import BadChunk, inflate  # chunks imports this module
+
+    f.seek(ref.data_offset)
+    try:
+        inflate(ref, f.read(ref.data_length), zstandard.ZstdDecompressor())
+    except BadChunk:
+        return False
+    return ref.uncompressed_crc != 0
+
+
 def plausible(f: BinaryIO, pos: int, limit: int, size: int) -> Rec | None:
-    """:func:`read_record` at ``pos``, kept only when a plausible record header follows it."""
+    """:func:`read_record` at ``pos``, kept only when a plausible record header follows it, or, for a
+    chunk whose successor is damaged too, when its data checks out (:func:`chunk_verifies`)."""
     rec = read_record(f, pos, limit)
-    if rec is None or not header_fits(f, rec.end, limit, size):
+    if rec is None:
         return None
-    return rec
+    if header_fits(f, rec.end, limit, size) or (rec.op == Opcode.CHUNK and chunk_verifies(f, rec.item)):
+        return rec
+    return None
 
 
 def resync(f: BinaryIO, start: int, limit: int, size: int) -> Rec | None:
@@ -265,7 +281,8 @@ def resync(f: BinaryIO, start: int, limit: int, size: int) -> Rec | None:
             nxt = cand + 9 + lengths.astype(np.int64)  # where the record after the candidate starts
             seen = nxt < len(buf)
             keep = np.ones(len(cand), dtype=bool)
-            keep[seen] = _NEXT_OK[buf[nxt[seen]]]  # a byte that can be an opcode, when in the window
+            # a byte that can be an opcode, when in the window (a chunk may instead verify its data)
+            keep[seen] = _NEXT_OK[buf[nxt[seen]]] | (buf[cand[seen]] == Opcode.CHUNK)
             for c in cand[keep].tolist():
                 rec = plausible(f, pos + c, limit, size)
                 if rec is not None:

@@ -5,7 +5,7 @@ inside a record; a damaged one has a record that does not parse. :func:`scan` wa
 reading only record headers and the small fixed headers of chunks (seeking over their payloads, so
 a 1 GB log is indexed in milliseconds). Where a record does not parse it first tries the bytes as a
 chunk whose opcode was damaged, then resynchronises on the next plausible record
-(:func:`logs_format.records.resync`), so damage costs only the records it hit. When the file has a
+(:mod:`logs_format.walk`), so damage costs only the records it hit. When the file has a
 whole footer and a summary whose CRC matches (:mod:`logs_format.summary`), the summary's chunk index
 locates every chunk, including one whose record header is damaged, and its metadata and attachment
 indexes recover records the walk skipped. What is lost goes into a :class:`LossReport`; nothing
@@ -26,21 +26,10 @@ from mcap.records import Channel, Metadata, Schema
 
 from logs_format.loss import CUT_OFF, UNREADABLE, LossReport, LostSpan
 from logs_format.profile import LogError
-from logs_format.records import (
-    CHUNK_HEAD,
-    MAGIC,
-    AttachmentRef,
-    ChunkRef,
-    IndexRun,
-    Rec,
-    chunk_at,
-    header_fits,
-    read_record,
-    resync,
-)
+from logs_format.records import CHUNK_HEAD, MAGIC, AttachmentRef, ChunkRef, IndexRun, read_record
 from logs_format.summary import Summary, read_summary
-
-_CHUNK_OP = bytes([Opcode.CHUNK])
+from logs_format.walk import Walk
+from logs_format.walk import walk as walk_records
 
 __all__ = ["MAGIC", "AttachmentRef", "ChunkRef", "IndexRun", "LogIndex", "LossReport", "scan"]
 
@@ -61,106 +50,13 @@ class LogIndex:
     chunk_messages: dict[int, IndexRun] = field(default_factory=dict)
 
 
-@dataclass
-class _Walk:
-    """What the walk over the data section met, by file offset."""
-
-    chunks: dict[int, ChunkRef] = field(default_factory=dict)
-    indexes: dict[int, Rec] = field(default_factory=dict)  # message index records
-    metadata: dict[int, tuple[str, dict[str, str]]] = field(default_factory=dict)
-    attachments: dict[int, AttachmentRef] = field(default_factory=dict)
-    gaps: list[tuple[int, int]] = field(default_factory=list)  # [start, end) where nothing parsed
-    tail: int | None = None  # first byte of an unreadable end (no record parses up to the limit)
-    tail_chunk: ChunkRef | None = None  # the header of a chunk the file ends inside
-    end: int = 0  # end of the last whole record
-    in_summary: bool = False  # the walk passed a DataEnd record
-    distrust_summary: bool = False  # the footer's summary failed its checks
-
-
-def _take(index: LogIndex, walk: _Walk, rec: Rec) -> None:
-    op, item = rec.op, rec.item
-    if op == Opcode.DATA_END:
-        walk.in_summary = True
-    elif walk.in_summary and walk.distrust_summary:
-        return  # a summary that failed its CRC: its schemas and channels are not taken either
-    elif op == Opcode.SCHEMA:
-        index.schemas[item.id] = item
-    elif op == Opcode.CHANNEL:
-        index.channels[item.id] = item
-    elif op == Opcode.HEADER:
-        index.profile, index.library = item.profile, item.library
-    elif op == Opcode.METADATA:
-        walk.metadata[rec.pos] = (item.name, dict(item.metadata))
-    elif walk.in_summary:
-        return  # summary records the walk met because the footer or summary was not trusted
-    elif op == Opcode.CHUNK:
-        walk.chunks[rec.pos] = item
-    elif op == Opcode.MESSAGE_INDEX:
-        walk.indexes[rec.pos] = rec
-    elif op == Opcode.MESSAGE:
-        t = item[2]
-        walk.chunks[rec.pos] = ChunkRef(rec.pos, t, t, "message", rec.end - rec.pos - 9, 0, rec.pos + 9,
-                                        rec.end - rec.pos - 9)
-    elif op == Opcode.ATTACHMENT:
-        walk.attachments[rec.pos] = item
-
-
-def _as_chunk(f: BinaryIO, pos: int, limit: int, size: int) -> Rec | None:
-    """The record at ``pos`` read as a chunk whose opcode byte was damaged (header and successor fit)."""
-    ref = chunk_at(f, pos)
-    if ref is None or ref.end > limit:
-        return None
-    return Rec(Opcode.CHUNK, pos, ref.end, ref) if header_fits(f, ref.end, limit, size) else None
-
-
-def _chunk_inside(f: BinaryIO, rec: Rec, limit: int, size: int) -> Rec | None:
-    """A chunk that starts inside a weakly checked record (a top-level message or a private record, whose
-    body nothing verifies): such a record with a damaged length must not swallow a whole chunk."""
-    f.seek(rec.pos + 1)
-    body = f.read(rec.end - rec.pos - 1)
-    at = body.find(_CHUNK_OP)
-    while at >= 0:
-        found = _as_chunk(f, rec.pos + 1 + at, limit, size)
-        if found is not None:
-            return found
-        at = body.find(_CHUNK_OP, at + 1)
-    return None
-
-
-def _walk(f: BinaryIO, index: LogIndex, start: int, limit: int, size: int, distrust_summary: bool) -> _Walk:
-    walk = _Walk(end=start, distrust_summary=distrust_summary)
-    pos = start
-    while pos < limit:
-        rec = read_record(f, pos, limit)
-        if rec is None or rec.op == Opcode.MESSAGE or rec.op >= 0x80:
-            rec = _as_chunk(f, pos, limit, size) or rec
-        if rec is None:
-            found = resync(f, pos + 1, limit, size)
-            if found is None:
-                walk.tail = pos
-                f.seek(pos)
-                head = chunk_at(f, pos) if f.read(1) == bytes([Opcode.CHUNK]) else None
-                walk.tail_chunk = head if not walk.in_summary else None
-                break
-            walk.gaps.append((pos, found.pos))
-            rec = found
-        if rec.op == Opcode.MESSAGE or rec.op >= 0x80:
-            inner = _chunk_inside(f, rec, limit, size)
-            if inner is not None:
-                walk.gaps.append((rec.pos, inner.pos))
-                rec = inner
-        _take(index, walk, rec)
-        pos = walk.end = rec.end
-    return walk
-
-
 def _index_run(runs: list[IndexRun]) -> IndexRun:
     starts = [r.start_ns for r in runs if r.start_ns is not None]
     ends = [r.end_ns for r in runs if r.end_ns is not None]
     return IndexRun(-1, sum(r.count for r in runs), min(starts, default=None), max(ends, default=None))
 
 
-def _run_after(walk: _Walk, pos: int) -> IndexRun | None:
+def _run_after(walk: Walk, pos: int) -> IndexRun | None:
     """The message index records that follow ``pos`` back to back (a chunk's), merged; None if none."""
     runs = []
     while pos in walk.indexes:
@@ -170,7 +66,7 @@ def _run_after(walk: _Walk, pos: int) -> IndexRun | None:
     return _index_run(runs) if runs else None
 
 
-def _from_summary(f: BinaryIO, index: LogIndex, walk: _Walk, summary: Summary) -> None:
+def _from_summary(f: BinaryIO, index: LogIndex, walk: Walk, summary: Summary) -> None:
     """Chunks, metadata and attachments the summary indexes but the walk did not find."""
     for ci in summary.chunk_indexes:
         off, span = ci.chunk_start_offset, ci.chunk_length
@@ -209,7 +105,7 @@ def _from_summary(f: BinaryIO, index: LogIndex, walk: _Walk, summary: Summary) -
                 walk.attachments[ai.offset] = rec.item
 
 
-def _losses(index: LogIndex, walk: _Walk, limit: int, size: int, complete: bool) -> None:
+def _losses(index: LogIndex, walk: Walk, limit: int, size: int, complete: bool) -> None:
     loss = index.loss
     chunks = sorted(walk.chunks.values(), key=lambda c: c.offset)
 
@@ -218,14 +114,21 @@ def _losses(index: LogIndex, walk: _Walk, limit: int, size: int, complete: bool)
         after = [c.start_ns for c in chunks if c.offset >= b]
         return (max(before) if before else None), (min(after) if after else None)
 
+    def owned_by_previous(a: int, run: IndexRun) -> bool:
+        """The index records after a gap are the rest of the index of the chunk before it (read whole)."""
+        prev = [c for c in chunks if c.offset < a and c.compression != "message"]
+        return bool(prev) and run.start_ns is not None and run.end_ns is not None \
+            and prev[-1].start_ns <= run.start_ns and run.end_ns <= prev[-1].end_ns
+
     for a, b in walk.gaps:
         run = _run_after(walk, b)
-        if run is not None and run.count:
+        if run is not None and run.count and not owned_by_previous(a, run):
             loss.add(LostSpan(UNREADABLE, a, b - a, run.start_ns, run.end_ns, run.count,
                               "damaged chunk: no record parses"))
         else:
             t0, t1 = around(a, b)
-            loss.add(LostSpan(UNREADABLE, a, b - a, t0, t1, None, "no record parses", times_estimated=True))
+            loss.add(LostSpan(UNREADABLE, a, b - a, t0, t1, None, "damaged records skipped",
+                              times_estimated=True))
     if walk.tail is not None and walk.tail < limit:
         nbytes = limit - walk.tail
         if complete:
@@ -266,7 +169,10 @@ def scan(f: BinaryIO, size: int) -> LogIndex:
         return index
     summary = read_summary(f, size)
     limit = summary.start if summary.usable else summary.footer_pos if summary.complete else size
-    walk = _walk(f, index, 8, limit, size, distrust_summary=bool(summary.problem))
+    walk = walk_records(f, 8, limit, size, distrust_summary=bool(summary.problem))
+    walk.settle()
+    index.schemas, index.channels = walk.schemas, walk.channels
+    index.profile, index.library = walk.profile, walk.library
     if summary.usable:
         index.schemas.update(summary.schemas)
         index.channels.update(summary.channels)
