@@ -131,6 +131,20 @@ def test_no_summary_resyncs_past_a_damaged_chunk(tmp_path: Path, healthy: Log) -
         assert span.seconds == pytest.approx((n_lost / 2 - 1) * 0.02, abs=0.0101)
 
 
+def test_an_index_record_turned_message_is_not_read_as_one(tmp_path: Path, healthy: Log) -> None:
+    """One bit turns a message index record (0x07) into a top-level message (0x05): nothing verifies such
+    a record, and a file of chunks holds none, so it is skipped and reported, not read as a frame."""
+    data, written = healthy
+    end = chunks_of(put(tmp_path / "full.mcap", data))[2][1]
+    assert data[end] == 0x07
+    bad = bytearray(data)
+    bad[end] ^= 0x02
+    with MissionLogReader(put(tmp_path / "bad.mcap", bad)) as log:
+        got = [(m.channel, m.log_time_ns, m.data) for m in log.messages()]
+        assert [s.kind for s in log.loss.spans] == ["unreadable"] and log.loss.spans[0].offset == end
+    assert got == sorted(written, key=lambda w: w[1])
+
+
 def test_a_chunk_claiming_a_terabyte_is_reported_bad_and_the_rest_read(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Legal zstd frames without a content size; one chunk's header claims 1 TB uncompressed."""

@@ -74,7 +74,7 @@ edits = st.lists(
     min_size=1, max_size=4)
 
 
-@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(compression=st.sampled_from(["zstd", "lz4", "none"]), ops=edits)
 def test_random_damage_loses_only_damaged_chunks(originals: dict[str, Original], tmp_path: Path,
                                                  compression: str, ops: list[tuple[str, float, int, bytes]]) -> None:
