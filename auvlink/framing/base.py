@@ -27,6 +27,7 @@ class FramerStats:
     dropped_bytes: int = 0
     bad_checksums: int = 0
     truncated: int = 0
+    truncated_bytes: int = 0  # bytes of the partial frame(s) left at the end of the stream (part of dropped_bytes)
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)  # flat ints: a shallow copy (dataclasses.asdict costs ~50 us per frame)
@@ -61,6 +62,7 @@ class Framer(ABC):
         self.stats.frames += len(frames)
         if self._buf:
             self.stats.truncated += 1
+            self.stats.truncated_bytes += len(self._buf)
             self.stats.dropped_bytes += len(self._buf)
             self._buf.clear()
         return frames

@@ -100,7 +100,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
         decode_s += time.perf_counter() - t_read
         engine.finish()
         stats = replay.stats()
-        loss = str(getattr(replay, "loss", "") or "")
+        loss = replay.loss.to_json()  # what the log lost (logs_format.loss.LossReport), as JSON
     bar.close()
     timings = {"start_up_s": warm_s, "replay_decode_s": decode_s, "navigation_s": engine.times.total("navigation"),
                "reconstruction_s": engine.times.total("reconstruction"),
@@ -134,7 +134,8 @@ def dropped_live(reader: MissionLogReader) -> set[tuple[str, int] | tuple[str, i
 ADVANCE_NS = 4_000_000_000  # replay hands samples to the engine in 4 s blocks (results do not depend on it)
 
 
-def result_of(engine: Engine, log: Path | None, timings: dict[str, float], stats: dict[str, Any], loss: str,
+def result_of(engine: Engine, log: Path | None, timings: dict[str, float], stats: dict[str, Any],
+              loss: dict[str, Any] | str,
               mode: str, drops: dict[str, int] | None = None, events: list[dict[str, Any]] | None = None
               ) -> MissionResult:
     return MissionResult(log=log, setup=engine.setup, detections=engine.detections, track=engine.track(),
