@@ -121,6 +121,7 @@ class ArisFramer(Framer):
     """Cuts ARIS frames (any ARIS ping mode) out of a byte stream."""
 
     format_name = "aris"
+    max_frame = FRAME_HEADER_SIZE + max(ALL_BEAMS) * MAX_SAMPLES_PER_BEAM
     #: beam counts accepted as sane (ARIS: 48, 64, 96, 128)
     beams_ok: frozenset[int] = ALL_BEAMS
 

@@ -23,6 +23,10 @@ class AsciiLineFramer(Framer):
     terminator: bytes = b"\n"
     max_line: int = 256
 
+    @property
+    def max_frame(self) -> int:  # type: ignore[override]
+        return self.max_line
+
     def _frame_start(self, line: bytes) -> int | None:
         """Offset in ``line`` (terminator included) where its frame starts, or None if it has none."""
         raise NotImplementedError

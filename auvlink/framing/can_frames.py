@@ -183,6 +183,7 @@ class CanFrameFramer(Framer):
     """Cuts 16-byte raw CAN frames; an invalid window is dropped one byte at a time."""
 
     format_name = "can"
+    max_frame = FRAME_SIZE
 
     def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
         if len(data) == FRAME_SIZE and data[6:8] == MARKER and frame_problem(data) is None:

@@ -58,6 +58,7 @@ class KellerFramer(Framer):
     """Cuts a stream of Keller bus requests and responses into whole, CRC-checked frames."""
 
     format_name = "keller"
+    max_frame = MAX_FRAME
 
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         frames: list[bytes] = []
