@@ -3,8 +3,9 @@
 A line ends with ``\\n`` (the instruments send CR LF). Each format says where in a terminated line
 its frame starts (:meth:`AsciiLineFramer._frame_start`): bytes before that are garbage and are
 dropped and counted, and a line with no frame in it is dropped whole. A run of bytes with no
-terminator longer than ``max_line`` is cut. At end of stream an unterminated tail that may be the
-beginning of a frame counts as truncated; other tails are dropped.
+terminator longer than ``max_line`` is cut, and a frame longer than ``max_line`` is dropped. At
+end of stream an unterminated tail that may be the beginning of a frame counts as truncated; other
+tails are dropped.
 
 (A small local base: the generic ``auvlink.framing.ascii_lines.LineFramer`` did not exist yet
 when these were written; these classes can move onto it without changing behaviour.)
@@ -55,7 +56,7 @@ class AsciiLineFramer(Framer):
                 return frames
             line = bytes(buf[: end + len(term)])
             start = self._frame_start(line)
-            if start is None:
+            if start is None or len(line) - start > self.max_line:  # no frame, or one longer than any
                 self._drop(buf, len(line))
                 continue
             self._drop(buf, start)
