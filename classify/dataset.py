@@ -100,10 +100,10 @@ def synthesize_class(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArr
 def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: SynthesisSettings,
                    cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
     """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given)."""
-    from tqdm import tqdm
+    from auvlink.progress import progress_bar
 
     pts, labels, meta = [], [], []
-    for label, name in enumerate(tqdm(class_names, desc="synthesize", disable=not progress, leave=False)):
+    for label, name in enumerate(progress_bar(class_names, enabled=progress, desc="synthesize", leave=False)):
         vertices, triangles = mesh_for(name)
         path = None
         if cache_dir is not None:

@@ -148,7 +148,7 @@ def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool 
     source of the simulator and recon) when given."""
     from pathlib import Path
 
-    from tqdm import tqdm
+    from auvlink.progress import progress_bar
 
     jobs = list(iter_passes(class_names, s))
     path = Path(cache_dir) / f"recon-{_code_hash(s, class_names)}.npz" if cache_dir is not None else None
@@ -158,7 +158,7 @@ def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool 
             depths = np.asarray(z["seabed"], dtype=np.float64)
         return [ReconCloud(*job, p, float(d)) for job, p, d in zip(jobs, parts, depths, strict=True)]
     out = []
-    for name, h, tilt, alt, lat in tqdm(jobs, desc="simulate+recon", disable=not progress):
+    for name, h, tilt, alt, lat in progress_bar(jobs, enabled=progress, desc="simulate+recon"):
         pts, depth = reconstruct_pass(name, h, tilt, alt, lat, s)
         out.append(ReconCloud(name, h, tilt, alt, lat, pts, depth))
     if path is not None:

@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
+from auvlink.progress import progress_bar
 
 FRAME_BLOCK = 64  # frames per reconstruction call when replaying a log not recorded live
 
@@ -131,8 +131,8 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
     replay = Replay(log, speed=speed)
-    bar = tqdm(total=round(duration or 0.0, 1), unit="s", desc="replay", disable=not progress,
-               leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
+    bar = progress_bar(total=round(duration or 0.0, 1), enabled=progress, unit="s", desc="replay",
+                       leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
     last_adv = None
     shown = 0.0
     decode_s = 0.0

@@ -183,14 +183,15 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
     if len(topic_t):
         pose = run.trajectory.true_pose(topic_t)
         positions, quats = pose.position, pose.rotation().as_quat()
-    from tqdm import tqdm
+    from auvlink.progress import progress_bar
 
     out = Path(out_path)
     j = 0  # next truth pose
     with contextlib.ExitStack() as stack:  # the pool forks before any thread (tqdm's monitor) starts
         pool = stack.enter_context(worker_pool(run, n_workers)) if n_workers > 1 else None
-        bar = stack.enter_context(tqdm(total=len(run.measurements.sonar.t), unit="frame", desc="auvlink sim",
-                                       disable=not progress, file=sys.stderr, dynamic_ncols=True))
+        bar = stack.enter_context(progress_bar(total=len(run.measurements.sonar.t), enabled=progress,
+                                               unit="frame", desc="auvlink sim", file=sys.stderr,
+                                               dynamic_ncols=True))
         log = stack.enter_context(MissionLogWriter(out, flush_interval=0.0, fsync=False, software=False))
         log.add_metadata(META_SOFTWARE, {"name": "auvlink", "version": __version__, "generator": "auvlink.sim"})
         log.add_vehicle_config(vehicle_config(run.scene, run.settings))
