@@ -93,3 +93,16 @@ def test_pd0_long_ensembles_checked_by_prefix_sums(chunk: int) -> None:
         got += framer.flush()
     assert got == good + good
     assert framer.stats.bad_checksums == 2
+
+
+def test_decode_keeps_a_bounded_list_of_problems() -> None:
+    """20 MB of undecodable CAN frames held 1.25 M problem strings (260 MB); now MAX_PROBLEMS, the rest counted."""
+    from auvlink.decode_file import MAX_PROBLEMS, decode_bytes
+    from auvlink.framing.can_frames import CanFrame, pack_frame
+
+    n = MAX_PROBLEMS + 1500
+    raw = pack_frame(CanFrame(0x123, b"\x01"))  # a valid raw frame whose id the navigation DBC does not know
+    res = decode_bytes(raw * n, formats.get("can"), lambda r: None)
+    assert res.decode_errors == n and len(res.problems) == MAX_PROBLEMS
+    assert res.problems_left_out == n - MAX_PROBLEMS and res.summary()["problems"] == n
+    assert res.problems[0].startswith("frame 0:") and res.problems[-1].startswith(f"frame {n - 1}:")
