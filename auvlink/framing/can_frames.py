@@ -196,7 +196,8 @@ class CanFrameFramer(Framer):
         end = len(buf)
         dropped = 0
         while end - pos >= FRAME_SIZE:
-            if buf[pos + 6 : pos + 8] == MARKER and frame_problem(buf, pos) is None:
+            if (buf[pos + 6] == 0xA5 and buf[pos + 7] == 0x5A and not buf[pos + 4] & ~_KNOWN_FLAGS
+                    and buf[pos + 5] <= MAX_DATA and frame_problem(buf, pos) is None):  # cheap checks first
                 out.append(bytes(buf[pos : pos + FRAME_SIZE]))
                 pos += FRAME_SIZE
                 continue

@@ -40,7 +40,7 @@ WORST_PATTERNS: dict[str, list[tuple[str, bytes]]] = {
     "pd0": [("0x7F7F", b"\x7f"), ("plausible headers, 64 KiB claimed, bad sums", b"\x7f\x7f\xfe\xff\x00\x01\x08\x00")],
     "dsp1760": [("headers, bad CRC", b"\xfe\x81\xff\x55")],
     "keller": [("F48 address pairs", b"\x01\x30"), ("F73 address pairs", b"\x01\x49")],
-    "can": [("markers A5 5A", b"\xa5\x5a")],
+    "can": [("markers A5 5A", b"\xa5\x5a"), ("zero frames, marker in the data", bytes(6) + b"\xa5\x5a")],
     "aris": [("signatures DDF_05", SIGNATURE), ("sane headers claiming 1 MiB", _sonar_header(128))],
     "didson": [("signatures DDF_05", SIGNATURE), ("sane headers claiming 768 KiB", _sonar_header(96))],
 }
