@@ -146,7 +146,7 @@ def _feed_all(fmt: str, data: bytes, read: int = 1 << 16) -> dict[str, Any]:
     hwm = _vm_kib("VmHWM")
     return {"seconds": cpu, "mb_per_s": len(data) / cpu / 1e6, "peak_mib": None if base is None or hwm is None
             else max(0, hwm - base) / 1024, "max_buffered": most, "max_frame": framer.max_frame,
-            "frames": frames, "dropped_bytes": framer.stats.dropped_bytes}
+            "frames": frames, "dropped_bytes": framer.stats.dropped_bytes, "bounded": most <= framer.max_frame}
 
 
 def _hostile(quick: bool) -> list[dict[str, Any]]:
@@ -169,7 +169,8 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     rows = pd0_rows + _sonar(quick) + _small(quick)
     print(table(rows, ["what", "items", "seconds", "per_s", "x_dolfyn"]))
     hostile = _hostile(quick)
-    print(table(hostile, ["format", "input", "mb", "seconds", "mb_per_s", "peak_mib", "max_buffered", "max_frame"]))
+    print(table(hostile, ["format", "input", "mb", "seconds", "mb_per_s", "peak_mib", "max_buffered",
+                          "max_frame", "bounded"]))
     peers = extra.pop("peers", [])
     for key, msg in extra.items():
         print(f"{key}: {msg}")
