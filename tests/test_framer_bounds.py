@@ -83,7 +83,7 @@ def test_pd0_long_ensembles_checked_by_prefix_sums(chunk: int) -> None:
     good = [_ensemble(n, n) for n in (3000, 40000, 65000, 2100)]
     bad = bytearray(_ensemble(20000, 1))
     bad[5000] ^= 0xFF
-    stream = b"junk" + good[0] + bytes(bad) + good[1] + b"\x7f\x7f" + good[2] + good[3]
+    stream = b"junk" + b"\x7f" * 37 + good[0] + bytes(bad) + good[1] + b"\x7f\x7f" + good[2] + b"\x7f" * 9 + good[3]
     framer = formats.get("pd0").framer()
     got: list[bytes] = []
     for _ in range(2):  # twice: the prefix must start afresh after a flush

@@ -18,6 +18,7 @@ ensemble follows it (then it was a false header and is dropped).
 
 from __future__ import annotations
 
+import re
 from zlib import adler32
 
 import numpy as np
@@ -27,6 +28,9 @@ from auvlink.framing.base import Framer
 _PD0 = 0x7F
 _WAVES = 0x79
 _CHUNK = 256  # 255 * 256 + 1 < 65521: Adler-32's A of a chunk is exactly 1 + its byte sum
+_RUN = 10  # a header starting with ten 0x7F bytes is impossible (its first offset lies past nbytes)
+_RUN_TAIL = b"\x7f" * (_RUN - 1)
+_NOT_7F = re.compile(b"[^\x7f]")
 _NUMPY_FROM = 2048  # above this many bytes one numpy reduction beats the chunked Adler-32
 
 
@@ -157,6 +161,10 @@ class Pd0Framer(Framer):
             if i < 0:
                 break
             search = i + 1
+            if buf[i + 1 : i + _RUN] == _RUN_TAIL:  # ten 0x7F: nbytes 0x7F7F < first offset + 2, no header
+                m = _NOT_7F.search(buf, i + _RUN)
+                search = (m.start() if m else n) - _RUN + 1  # every start in the run is one of these
+                continue
             if i + 1 < n and buf[i + 1] != _PD0 and buf[i + 1] != _WAVES:
                 continue
             end = -1  # unknown until the header is whole
