@@ -62,6 +62,7 @@ class LineFramer(Framer):
             self.format_name = format_name
         self._skipping = False  # inside a line longer than max_length, until its terminator
         self._start_re = _start_pattern(start)
+        self._run_re = None if self._start_re is None else re.compile(self._start_re.pattern + b"+")
 
     def _find_start(self, buf: bytearray, pos: int, stop: int) -> int:
         """Index of the first byte in ``buf[pos:stop]`` that may start a line, or -1 (one C scan)."""
@@ -117,6 +118,9 @@ class LineFramer(Framer):
             if self.resync_on_start:
                 nxt = self._find_start(buf, s + 1, t if t >= 0 else n)
                 if nxt >= 0:  # a new line began before this one ended: this one was cut short
+                    if nxt == s + 1 and self._run_re is not None:  # a run of starts: all but its last are cut
+                        run = self._run_re.match(buf, s, t if t >= 0 else n)
+                        nxt = run.end() - 1 if run else nxt
                     dropped += nxt - s
                     pos = nxt
                     continue
