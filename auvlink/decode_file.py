@@ -16,6 +16,8 @@ from auvlink.errors import AuvlinkError
 from auvlink.formats import WireFormat
 
 CHUNK = 1 << 20
+#: problem lines kept per file; the rest are counted (``problems_left_out``) so memory stays bounded
+MAX_PROBLEMS = 1000
 
 
 @dataclass
@@ -30,6 +32,8 @@ class DecodeResult:
     t_first: float | None = None
     t_last: float | None = None
     problems: list[str] = field(default_factory=list)
+    #: problems beyond :data:`MAX_PROBLEMS` (counted, not kept; ``problems[-1]`` is always the latest)
+    problems_left_out: int = 0
 
     def reason(self) -> str:
         if self.file_bytes == 0:
@@ -57,7 +61,7 @@ class DecodeResult:
             "framer": self.framer,
             "t_first": _iso(self.t_first),
             "t_last": _iso(self.t_last),
-            "problems": len(self.problems),
+            "problems": len(self.problems) + self.problems_left_out,
         }
 
     def human_summary(self) -> str:
@@ -123,7 +127,11 @@ def _decode_frames(
             record = fmt.decode(raw)
         except (AuvlinkError, ValueError) as exc:
             result.decode_errors += 1
-            result.problems.append(f"frame {index}: {exc}")
+            if len(result.problems) < MAX_PROBLEMS:
+                result.problems.append(f"frame {index}: {exc}")
+            else:  # a file of a million bad frames must not hold a million strings
+                result.problems[-1] = f"frame {index}: {exc}"
+                result.problems_left_out += 1
         else:
             _take(result, fmt, record, emit)
         index += 1

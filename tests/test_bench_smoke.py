@@ -111,6 +111,12 @@ def test_sim_and_decode_figures(smoke_run: Run) -> None:
     for peer in sim["peers"]:
         assert peer["identical"] is True, "culling changed the image bytes"
     decode = results["stages"]["decode"]
+    hostile = decode["hostile"]  # every framer on garbage and its worst patterns: a rate, a bounded buffer
+    from auvlink.framing.hostile import WORST_PATTERNS
+
+    assert {r["format"] for r in hostile} == set(WORST_PATTERNS)
+    assert len(hostile) == sum(1 + len(p) for p in WORST_PATTERNS.values())
+    assert all(r["bounded"] and r["mb_per_s"] > 0 and r["frames"] == 0 for r in hostile), hostile
     notes = decode.get("notes", {})
     if "pd0" not in notes:  # the capture is in ../shared/data
         bulk = [p for p in decode["peers"] if p["peer"] == "pd0 framer+decode (auvlink)"]

@@ -10,12 +10,20 @@ whether ``data`` is exactly one whole, valid frame (the common case when a log r
 message, and for many packet transports). The answer must be exactly what :meth:`Framer._extract`
 would return, the same checks included (CRC, sanity); a framer that does not know returns None and
 the general path runs. The frame is then ``data`` itself (no copy).
+
+Bounds: every format has a largest frame (:attr:`Framer.max_frame`, bytes); after any feed at most
+that many bytes stay buffered (bytes that cannot start a frame are dropped and counted), and a large
+``data`` is framed in slices of :data:`FEED_SLICE` bytes, so a framer's memory does not grow with
+its input. Every framer is linear in its input: a scan position is never searched twice per feed.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+
+#: a feed larger than this is framed in slices of this many bytes (bounds the working memory)
+FEED_SLICE = 1 << 20
 
 
 @dataclass
@@ -38,6 +46,8 @@ class Framer(ABC):
 
     #: the format name this framer cuts (``"pd0"``, ``"dsp1760"``, ...)
     format_name: str = ""
+    #: the longest frame of the format in bytes: the most a framer keeps buffered between feeds
+    max_frame: int = 1 << 16
 
     def __init__(self) -> None:
         self._buf = bytearray()
@@ -51,8 +61,15 @@ class Framer(ABC):
             if whole is not None:
                 self.stats.frames += 1
                 return [whole]
-        self._buf += data
-        frames = self._extract(self._buf)
+        if len(data) <= FEED_SLICE:
+            self._buf += data
+            frames = self._extract(self._buf)
+        else:
+            frames = []
+            view = memoryview(data)
+            for k in range(0, len(data), FEED_SLICE):
+                self._buf += view[k : k + FEED_SLICE]
+                frames += self._extract(self._buf)
         self.stats.frames += len(frames)
         return frames
 

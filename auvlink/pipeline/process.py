@@ -16,12 +16,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
 from auvlink.config import VehicleConfig
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup
+from auvlink.progress import progress_bar
 from logs_format import MissionLogReader, Replay
 from recon.pipeline import ReconConfig
 
@@ -68,8 +67,8 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
     replay = Replay(log, speed=speed)
-    bar = tqdm(total=round(duration or 0.0, 1), unit="s", desc="replay", disable=not progress,
-               leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
+    bar = progress_bar(total=round(duration or 0.0, 1), enabled=progress, unit="s", desc="replay",
+                       leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
     last_adv = None
     shown = 0.0
     decode_s = 0.0
