@@ -14,7 +14,10 @@ from hypothesis import strategies as st
 
 from auvlink import formats
 from auvlink.codecs import aris
-from auvlink.codecs.aris_defs import (
+from auvlink.decode_file import decode_bytes
+from auvlink.errors import DecodeError
+from auvlink.framing.aris import ArisFramer
+from auvlink.framing.aris_defs import (
     FILE_HEADER_DTYPE,
     FRAME_HEADER_DTYPE,
     PING_MODE_BEAMS,
@@ -25,9 +28,6 @@ from auvlink.codecs.aris_defs import (
     beam_tables,
     offset,
 )
-from auvlink.decode_file import decode_bytes
-from auvlink.errors import DecodeError
-from auvlink.framing.aris import ArisFramer
 
 SOUND_SPEED = 1435.93
 
@@ -274,3 +274,35 @@ def test_framer_garbage_never_raises(data: bytes, chunk: int) -> None:
     framer = ArisFramer()
     out = run(framer, data, [chunk] * (len(data) // chunk))
     assert framer.stats.dropped_bytes + sum(map(len, out)) == len(data)
+
+
+@pytest.mark.parametrize("damage", ["insert 1 byte", "flip byte 0", "cut 1 byte", "cut 13 bytes", "zero 100 bytes"])
+def test_leading_damage_keeps_every_intact_frame(sample: bytes, damage: str) -> None:
+    """One damaged byte (or a cut) before the first frame costs no frame: frames are found by their headers."""
+    data = {"insert 1 byte": b"\x00" + sample, "flip byte 0": b"\x00" + sample[1:], "cut 1 byte": sample[1:],
+            "cut 13 bytes": sample[13:], "zero 100 bytes": bytes(100) + sample[100:]}[damage]
+    good = aris.read_file(sample).frames
+    result = aris.read_file(data)
+    assert [f.frame_index for f in result.frames] == list(range(6))
+    assert all(aris.encode(a) == aris.encode(b) for a, b in zip(result.frames, good, strict=True))
+    kept = 6 * (1024 + 48 * 2000) + (1024 if result.header is not None else 0)
+    assert result.problems and result.stats["dropped_bytes"] == len(data) - kept
+    assert (result.header is not None) == (damage == "insert 1 byte")  # an intact header is still found
+    res = decode_bytes(data, formats.get("aris"), lambda r: None)  # the `auvlink decode` path
+    assert res.records == 6
+
+
+def test_didson_stream_with_leading_damage_keeps_every_frame() -> None:
+    from auvlink.codecs import didson
+
+    rng = np.random.default_rng(1)
+    frames = [didson.encode(didson.build(image=rng.integers(0, 256, (32, 96), dtype=np.uint8), frame_index=i,
+                                         time=1.7e9 + i, window_start_m=1.0, window_length_m=10.0))
+              for i in range(4)]
+    stream = b"".join(frames)
+    cases = [(b"\x00" + stream, frames), (b"\xff" * 7 + stream, frames), (stream[13:], frames[1:]),
+             (b"DDF\x05" * 300 + stream, frames)]
+    for data, expected in cases:
+        records: list[didson.DidsonFrame] = []
+        decode_bytes(data, formats.get("didson"), records.append)
+        assert [didson.encode(r) for r in records] == expected

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import torch
 
+from auvlink.evaluation.recon_eval import PassSettings, reconstruct_pass
 from classify.checkpoint import load_checkpoint
 from classify.infer import DEFAULT_MODEL, Classifier
-from classify.recon_eval import PassSettings, reconstruct_pass
 from classify.synthesis import MeshSynthesizer, SynthesisSettings
 
 torch.set_num_threads(1)

@@ -14,7 +14,8 @@ import pymap3d
 import pytest
 
 from auvlink.pipeline.outputs import write_outputs
-from auvlink.pipeline.process import MissionResult, run_log
+from auvlink.pipeline.process import run_log
+from auvlink.pipeline.results import MissionResult
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import loads_scene
 

@@ -12,7 +12,8 @@ import pytest
 from live_helpers import TRUTH_NE, simulate, start, threads, vehicle_config
 
 from auvlink.pipeline.live import LiveRun
-from auvlink.pipeline.process import MissionResult, run_log
+from auvlink.pipeline.process import run_log
+from auvlink.pipeline.results import MissionResult
 
 
 @pytest.fixture(scope="module")

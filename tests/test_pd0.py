@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from auvlink import formats
 from auvlink.codecs import pd0
 from auvlink.codecs.pd0 import Pd0Ensemble, decode, encode
+from auvlink.codecs.pd0_build import build
 from auvlink.errors import ChecksumError, DecodeError, EncodeError
 from auvlink.framing.pd0 import Pd0Framer, sum16
 
@@ -177,7 +178,7 @@ def test_chunked_feed_gives_the_same_frames(shared_data: Path) -> None:
 def _sample() -> Pd0Ensemble:
     v = np.arange(12, dtype=float).reshape(3, 4) / 100.0
     v[1, 2] = np.nan
-    return Pd0Ensemble.build(70000, 1.5e9, heading_rad=1.0, bt_velocity_mps=[0.1, np.nan, -0.2, 0.0],
+    return build(70000, 1.5e9, heading_rad=1.0, bt_velocity_mps=[0.1, np.nan, -0.2, 0.0],
                              bt_range_m=[12.0, 700.5, np.nan, 12.5], velocity_mps=v,
                              correlation=np.full((3, 4), 200), coordinate_system="earth")
 
@@ -225,13 +226,13 @@ def test_unknown_data_types_are_preserved() -> None:
 
 def test_encode_rejects_out_of_range() -> None:
     with pytest.raises(EncodeError):
-        Pd0Ensemble.build(1, 0.0, bt_velocity_mps=[40.0, 0, 0, 0])
+        build(1, 0.0, bt_velocity_mps=[40.0, 0, 0, 0])
     with pytest.raises(EncodeError):
-        Pd0Ensemble.build(1, 0.0, velocity_mps=np.zeros((2, 3)))
+        build(1, 0.0, velocity_mps=np.zeros((2, 3)))
     with pytest.raises(EncodeError):
-        Pd0Ensemble.build(1, 0.0, correlation=np.full((2, 4), 300))
+        build(1, 0.0, correlation=np.full((2, 4), 300))
     with pytest.raises(EncodeError):
-        Pd0Ensemble.build(1 << 24, 0.0)
+        build(1 << 24, 0.0)
 
 
 def test_wire_format_registry() -> None:
@@ -272,7 +273,7 @@ def test_build_round_trip(ens: int, t: float, att: tuple[float, float, float], t
     vel = rng.normal(0, 2, (cells, 4)) if cells else None
     if vel is not None:
         vel[rng.random((cells, 4)) < 0.2] = np.nan
-    r = Pd0Ensemble.build(ens, t, heading_rad=att[0], pitch_rad=att[1], roll_rad=att[2], temperature_c=temp,
+    r = build(ens, t, heading_rad=att[0], pitch_rad=att[1], roll_rad=att[2], temperature_c=temp,
                           bt_velocity_mps=btv, bt_range_m=btr, coordinate_system=coord, velocity_mps=vel,
                           echo_intensity=None if vel is None else rng.integers(0, 256, (cells, 4)))
     frame = encode(r)
@@ -290,7 +291,7 @@ def test_build_round_trip(ens: int, t: float, att: tuple[float, float, float], t
 
 def _stream(n: int, seed: int) -> list[bytes]:
     rng = np.random.default_rng(seed)
-    return [encode(Pd0Ensemble.build(i, 1e9 + i, bt_velocity_mps=rng.normal(0, 1, 4), bt_range_m=[5, 6, 7, 8],
+    return [encode(build(i, 1e9 + i, bt_velocity_mps=rng.normal(0, 1, 4), bt_range_m=[5, 6, 7, 8],
                                      velocity_mps=rng.normal(0, 1, (int(rng.integers(1, 8)), 4))))
             for i in range(n)]
 

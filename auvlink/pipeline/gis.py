@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from auvlink.pipeline.process import MissionResult
+from auvlink.pipeline.results import MissionResult
 
 TRACK_COLUMNS = ("time", "lat", "lon", "north", "east", "depth", "altitude", "heading", "correction_north",
                  "correction_east")

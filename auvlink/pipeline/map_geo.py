@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from auvlink.geodesy import Datum
-from auvlink.pipeline.process import MissionResult
+from auvlink.pipeline.results import MissionResult
 
 
 def _nice(length: float) -> float:
