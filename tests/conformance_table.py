@@ -226,4 +226,29 @@ TABLE: dict[str, Entry] = {
         decoys=(b"\xa5\x5a",),
         gap_excludes=(b"\xa5\x5a",),
     ),
+    # NMEA 0183 (added on the geo branch): the entry applies once ``nmea`` is registered
+    "nmea": Entry(
+        goldens=(
+            Golden(
+                "nmea/atomic2020_rhb_gps.nmea",
+                "NOAA R/V Ronald H. Brown DGPS (VS100), ATOMIC 2020 (tests/golden/nmea/README.md)", frames=29,
+                dropped=0,
+                expect={
+                    1: {"type": "GGA", "talker": "GP", "time_s": 19 * 3600 + 59 * 60 + 59.0,
+                        "latitude_deg": 15 + 41.31258893 / 60, "longitude_deg": -(51 + 30.51204125 / 60),
+                        "quality": 2, "satellites": 6, "hdop": 1.5, "altitude_m": 9.2, "geoid_separation_m": -37.6,
+                        "dgps_age_s": 4.0, "has_fix": True},
+                    5: {"type": "RMC", "valid": True, "latitude_deg": 15 + 41.31258893 / 60,
+                        "longitude_deg": -(51 + 30.51204125 / 60), "speed_mps": 0.26 * 1852 / 3600,
+                        "course_rad": math.radians(147.44)},
+                },
+                rel_tol=1e-9, abs_tol=1e-9,
+            ),
+            Golden("nmea/ublox_neo6m_nofix.nmea", "u-blox NEO-6M before its first fix (tests/golden/nmea/README.md)",
+                   frames=6, dropped=0,
+                   expect={0: {"type": "RMC", "valid": False, "has_fix": False},
+                           2: {"type": "GGA", "quality": 0, "satellites": 0, "has_fix": False}}),
+        ),
+        decoys=(b"$", b"$GPGGA,", b"*7E\r\n", b"!"),
+    ),
 }
