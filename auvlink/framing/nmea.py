@@ -10,7 +10,8 @@ Behaviour, for any chunking of the input (linear time, bounded buffer):
 - a sentence longer than :data:`MAX_SENTENCE` (NMEA 0183 allows 82 characters; proprietary sentences
   run longer) or holding a non-printable byte is garbage, dropped;
 - a sentence whose ``*hh`` checksum does not match (computed by pynmea2) is dropped and counted in
-  ``stats.bad_checksums``; one without a checksum is kept and left to the codec (which rejects it);
+  ``stats.bad_checksums``; one without a well-formed checksum (``*`` and two upper-case hex digits just
+  before CR LF) is dropped as garbage: a sentence is only ever handed on whole and verified;
 - every byte is looked at a bounded number of times: the search for the end of a partial sentence
   resumes where the previous feed stopped.
 """
@@ -26,7 +27,7 @@ MAX_SENTENCE = 164
 _START = re.compile(rb"[$!]")
 _STOP = re.compile(rb"[$!\n]")
 _PRINTABLE = re.compile(rb"[\x20-\x7e]*\r?\n")
-_CHECKSUM = re.compile(rb"\*([0-9A-Fa-f]{2})\r?\n")
+_CHECKSUM = re.compile(rb"\*([0-9A-F]{2})\r?\n")
 
 
 def checksum_ok(frame: bytes) -> bool | None:
@@ -34,7 +35,7 @@ def checksum_ok(frame: bytes) -> bool | None:
     import pynmea2
 
     m = _CHECKSUM.search(frame)
-    if m is None:
+    if m is None or m.end() != len(frame):
         return None
     body = frame[1 : m.start()].decode("ascii")
     return int(pynmea2.NMEASentence.checksum(body)) == int(m.group(1), 16)
@@ -60,7 +61,7 @@ class NmeaFramer(Framer):
         m = _STOP.search(line, 1)
         if m is None or m.start() != len(line) - 1 or not _PRINTABLE.fullmatch(line, 1):
             return None
-        return line if checksum_ok(line) is not False else None
+        return line if checksum_ok(line) else None
 
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         frames: list[bytes] = []
@@ -99,8 +100,8 @@ class NmeaFramer(Framer):
                 dropped += len(frame)
                 continue
             ok = checksum_ok(frame)
-            if ok is False:
-                self.stats.bad_checksums += 1
+            if not ok:
+                self.stats.bad_checksums += ok is False
                 dropped += len(frame)
                 continue
             frames.append(frame)
