@@ -131,3 +131,24 @@ def test_two_wild_fixes_of_three_give_no_anchor() -> None:
     for t, r in ((0.0, [0.0, 0.0]), (1.0, [300.0, 0.0]), (2.0, [0.0, -500.0])):
         a.add_fix(t, r, 1.0, [0.0, 0.0, 0.0], depth=0.0)
     assert a.start_anchor is None  # fewer than min_fixes inliers: no anchor rather than a bad one
+
+
+def test_router_takes_gga_and_rmc_only_from_receivers_without_gga() -> None:
+    from auvlink.pipeline.route import Router
+    from auvlink.records import Sample
+
+    gga = nmea.build_gga(10.0, 36.0412, 129.3915)
+    rmc = nmea.build_rmc(1767225610.0, 36.0412, 129.3915)
+    zda = nmea.build_zda(1767225610.0)
+
+    def sample(dev: str, rec: object, k: int) -> Sample:
+        return Sample(dev, "nmea", k, b"", rec)
+
+    r = Router()
+    assert r.route(sample("rmc_only", rmc, 1)).kind == "gnss"  # type: ignore[union-attr]
+    assert r.route(sample("rmc_only", zda, 2)) is None
+    ev = r.route(sample("gga", gga, 3))
+    assert ev is not None and ev.kind == "gnss" and ev.payload.quality == 2
+    assert r.route(sample("gga", rmc, 4)) is None  # GGA carries the fix; RMC would count it twice
+    nofix = gnss_payload(nmea.build_rmc(1767225611.0, None, None), False)
+    assert nofix is not None and nofix.quality == 0 and math.isnan(nofix.latitude)
