@@ -186,11 +186,11 @@ class GeneralPathReplay(Replay):
     """Replay with the framers' one-whole-frame fast path switched off (every message through
     ``Framer._extract``): the reference the fast path is measured against in the same run."""
 
-    def driver(self, msg: Any) -> Any:
-        drv = super().driver(msg)
-        if drv is not None:
-            drv.framer._whole = lambda data: None  # type: ignore[method-assign]
-        return drv
+    def decoder(self, msg: Any) -> Any:
+        dec = super().decoder(msg)
+        if dec is not None:
+            dec.framer._whole = lambda data: None  # type: ignore[method-assign]
+        return dec
 
 
 def _replay(path: Path, mission_s: float, general_path: bool = False, prefetch: bool = True) -> dict[str, Any]:
@@ -201,8 +201,8 @@ def _replay(path: Path, mission_s: float, general_path: bool = False, prefetch: 
             rep.reader.prefetch = prefetch
             for _ in rep.samples():
                 n += 1
-            errors = sum(d.stats.decode_errors for d in rep.drivers.values())
-            framer_drops = sum(d.framer.stats.dropped_bytes for d in rep.drivers.values())
+            errors = sum(d.stats.decode_errors for d in rep.decoders.values())
+            framer_drops = sum(d.framer.stats.dropped_bytes for d in rep.decoders.values())
         dt, dc = time.perf_counter() - t0, time.process_time() - c0
     stage = ("replay, framer general path" if general_path else "replay (read+frame+decode)"
              if prefetch else "replay, no chunk prefetch")

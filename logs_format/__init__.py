@@ -14,7 +14,7 @@ from logs_format.importers import ImportResult, import_can_log, import_serial_ca
 from logs_format.info import format_info, log_info
 from logs_format.profile import LogError
 from logs_format.reader import MissionLogReader, read_messages
-from logs_format.replay import LogTransport, Replay, paced, replay_frames, replay_samples
+from logs_format.replay import Replay, paced, replay_frames, replay_samples
 from logs_format.scan import LossReport
 from logs_format.writer import MissionLogWriter
 
@@ -24,7 +24,6 @@ __all__ = [
     "ImportResult",
     "LogError",
     "LogMessage",
-    "LogTransport",
     "LossReport",
     "MissionLogReader",
     "MissionLogWriter",

@@ -1,9 +1,11 @@
 """Run the pipeline on a mission log: replay -> the streaming engine -> detections; the result types.
 
-Replay goes through :class:`logs_format.Replay`, i.e. the same framers, codecs and driver code as
-live operation, and the samples through :class:`auvlink.pipeline.engine.Engine`, the engine of
-``auvlink live``. Each stage is timed; the result carries everything the outputs and the report
-need. :func:`run_log_batch` keeps the non-causal batch path as a reference for tests.
+Replay goes through :class:`logs_format.Replay`, i.e. the same decoders (framer + codec) as live
+operation, for the channels whose wire format a stage consumes
+(:data:`auvlink.pipeline.nav_inputs.CONSUMED_FORMATS`; the others are counted, not decoded), and
+the samples through :class:`auvlink.pipeline.engine.Engine`, the engine of ``auvlink live``. Each
+stage is timed; the result carries everything the outputs and the report need. :func:`run_log_batch`
+keeps the non-causal batch path as a reference for tests.
 """
 
 from __future__ import annotations
@@ -114,6 +116,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     used unless ``engine_config`` is given, so the replay gives the live detections.
     """
     from auvlink.pipeline.engine import Engine, EngineConfig
+    from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
     from logs_format import MissionLogReader, Replay
 
     t_start = time.perf_counter()
@@ -130,7 +133,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     t_warm = time.perf_counter()
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
-    replay = Replay(log, speed=speed)
+    replay = Replay(log, speed=speed, formats=CONSUMED_FORMATS)
     bar = tqdm(total=round(duration or 0.0, 1), unit="s", desc="replay", disable=not progress,
                leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
     last_adv = None
@@ -214,6 +217,7 @@ def run_log_batch(log: Path, *, recon_config: Any = None) -> tuple[list[Any], An
     """Reference for tests: the whole mission dead-reckoned at once (non-causal), reconstructed in
     blocks and clustered at the end; returns (objects, trajectory). No classification."""
     from auvlink.pipeline.collect import MissionData
+    from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
     from logs_format import MissionLogReader, Replay
     from recon.nav import dead_reckon
     from recon.pipeline import Reconstructor
@@ -221,10 +225,10 @@ def run_log_batch(log: Path, *, recon_config: Any = None) -> tuple[list[Any], An
     with MissionLogReader(log) as reader:
         setup = MissionSetup.from_metadata(reader.metadata(decode_json=True))
     data = MissionData()
-    with Replay(log) as replay:
+    with Replay(log, formats=CONSUMED_FORMATS) as replay:
         for sample in replay.samples():
             data.add(sample)
-    if len(data.dvl_t) < 2 or len(data.gyro_t) < 2 or not data.depth_t:
+    if data.n("dvl") < 2 or data.n("gyro") < 2 or not data.n("depth"):
         raise AuvlinkError(f"{log}: not enough navigation to process")
     traj = dead_reckon(*data.nav_inputs(), nav_config(setup))
     times, images = data.sonar.stack()
