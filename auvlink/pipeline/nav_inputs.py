@@ -18,11 +18,12 @@ track; others give no event)                   ensemble's coordinate system), va
 =====================================  ======  ==============================================================
 
 Every other format (the CAN navigation bus, PD6 lines, the DSP-3000 integrated angle) gives no event:
-:data:`CONSUMED_FORMATS` is the set above, and replay decodes only the channels of these formats.
-The order key ``(t_ns, seq)`` is the host receive time, then the arrival order, so a log replays in
-the order the live run saw. :func:`nav_inputs` turns a run of events into the arrays of
-:mod:`recon.nav` (times in s relative to a mission origin ``t0_ns``, so float64 keeps sub-microsecond
-resolution over long missions); the streaming engine calls it per block, the batch path once.
+:data:`ROUTES` is the table above, :data:`CONSUMED_FORMATS` its formats, and replay decodes only the
+channels of these formats. The order key ``(t_ns, seq)`` is the host receive time, then the arrival
+order, so a log replays in the order the live run saw. :func:`nav_inputs` turns a run of events into
+the arrays of :mod:`recon.nav` (times in s relative to a mission origin ``t0_ns``, so float64 keeps
+sub-microsecond resolution over long missions); the streaming engine calls it per block, the batch
+path once.
 """
 
 from __future__ import annotations
@@ -37,13 +38,16 @@ from auvlink.codecs import keller
 from auvlink.records import Sample
 from recon.nav import DepthSamples, DvlSamples, GyroSamples
 
-#: wire formats of navigation samples -> the event kind they give
-NAV_FORMATS: dict[str, str] = {"pd0": "dvl", "dsp1760": "gyro", "dsp3000": "gyro", "dsp3000_incremental": "gyro",
-                               "paro": "depth", "keller": "depth"}
+#: wire format -> (event kind, the :class:`NavAdaptor` method that makes the payload); the one table of
+#: what the pipeline's stages consume
+ROUTES: dict[str, tuple[str, str]] = {
+    "pd0": ("dvl", "_pd0"), "dsp1760": ("gyro", "_dsp1760"), "dsp3000": ("gyro", "_dsp3000"),
+    "dsp3000_incremental": ("gyro", "_dsp3000"), "paro": ("depth", "_paro"), "keller": ("depth", "_keller"),
+    "didson": ("sonar", "_sonar"), "aris": ("sonar", "_sonar")}
 #: wire formats of sonar frames
-SONAR_FORMATS: tuple[str, ...] = ("didson", "aris")
+SONAR_FORMATS: tuple[str, ...] = tuple(f for f, (kind, _) in ROUTES.items() if kind == "sonar")
 #: every wire format a pipeline stage consumes; samples of any other format give no event
-CONSUMED_FORMATS: frozenset[str] = frozenset(NAV_FORMATS) | frozenset(SONAR_FORMATS)
+CONSUMED_FORMATS: frozenset[str] = frozenset(ROUTES)
 
 
 class Event(NamedTuple):
@@ -84,27 +88,26 @@ class NavAdaptor:
     ``gyro_kind`` is ``rate`` or ``delta`` as the last gyro sample said; ``counts`` the samples seen per device.
     """
 
-    consumes = CONSUMED_FORMATS
-
     def __init__(self) -> None:
         self.seq = 0
         self.gyro_kind = "rate"
         self.counts: dict[str, int] = {}
         self._keller_request: dict[int, keller.KellerReadRequest] = {}
-        self._by_format: dict[str, Callable[[Any, str], tuple[str, Any] | None]] = {
-            "pd0": self._pd0, "dsp1760": self._dsp1760, "dsp3000": self._dsp3000,
-            "dsp3000_incremental": self._dsp3000, "paro": self._paro, "keller": self._keller,
-            "didson": self._sonar, "aris": self._sonar}
+        self._routes: dict[str, tuple[str, Callable[[Any, str], Any]]] = {
+            fmt: (kind, getattr(self, method)) for fmt, (kind, method) in ROUTES.items()}
 
     def route(self, s: Sample) -> Event | None:
         """The event of ``s``, or None when no stage consumes it."""
         self.counts[s.device] = self.counts.get(s.device, 0) + 1
-        fn = self._by_format.get(s.format)
-        payload = None if fn is None else fn(s.record, s.device)
+        route = self._routes.get(s.format)
+        if route is None:
+            return None
+        kind, make = route
+        payload = make(s.record, s.device)
         if payload is None:
             return None
         self.seq += 1
-        return Event(s.t_host_ns, self.seq, payload[0], payload[1])
+        return Event(s.t_host_ns, self.seq, kind, payload)
 
     def nav_inputs(self, events: Sequence[Event], t0_ns: int) -> NavInputs:
         """:func:`nav_inputs` with this adaptor's gyro kind."""
@@ -112,30 +115,30 @@ class NavAdaptor:
 
     # ------------------------------------------------------------------ per format
     @staticmethod
-    def _pd0(r: Any, device: str) -> tuple[str, Any] | None:
+    def _pd0(r: Any, device: str) -> DvlPayload | None:
         if r.bottom_track is None:
             return None
         v = np.asarray(r.bt_velocity_mps, dtype=np.float64)[:3]
         ranges = np.asarray(r.bt_range_m, dtype=np.float64)
         ok = np.isfinite(ranges)
         alt = float(ranges[ok].mean()) if ok.sum() >= 3 else np.nan
-        return "dvl", DvlPayload((float(v[0]), float(v[1]), float(v[2])), bool(np.all(np.isfinite(v))), alt,
-                                 r.heading_rad, r.pitch_rad, r.roll_rad, r.coordinate_system)
+        return DvlPayload((float(v[0]), float(v[1]), float(v[2])), bool(np.all(np.isfinite(v))), alt,
+                          r.heading_rad, r.pitch_rad, r.roll_rad, r.coordinate_system)
 
-    def _dsp1760(self, r: Any, device: str) -> tuple[str, Any]:
+    def _dsp1760(self, r: Any, device: str) -> tuple[float, ...]:
         self.gyro_kind = "delta" if r.mode == "delta" else "rate"
-        return "gyro", tuple(float(x) for x in r.gyro)
+        return tuple(float(x) for x in r.gyro)
 
-    def _dsp3000(self, r: Any, device: str) -> tuple[str, Any]:
+    def _dsp3000(self, r: Any, device: str) -> tuple[float, ...]:
         self.gyro_kind = "delta" if r.mode == "incremental" else "rate"
-        return "gyro", (0.0, 0.0, float(r.value) if r.valid else np.nan)
+        return (0.0, 0.0, float(r.value) if r.valid else np.nan)
 
     @staticmethod
-    def _paro(r: Any, device: str) -> tuple[str, Any] | None:
+    def _paro(r: Any, device: str) -> float | None:
         p = getattr(r, "pressure_pa", None)
-        return ("depth", float(p)) if p is not None and np.isfinite(p) else None
+        return float(p) if p is not None and np.isfinite(p) else None
 
-    def _keller(self, r: Any, device: str) -> tuple[str, Any] | None:
+    def _keller(self, r: Any, device: str) -> float | None:
         if isinstance(r, keller.KellerReadRequest):
             self._keller_request[r.address] = r
         elif isinstance(r, keller.KellerReadResponse):
@@ -143,13 +146,13 @@ class NavAdaptor:
             if req is not None:
                 p = keller.pair(req, r).pressure_pa
                 if p is not None and np.isfinite(p):
-                    return "depth", float(p)
+                    return float(p)
         return None
 
     @staticmethod
-    def _sonar(r: Any, device: str) -> tuple[str, Any]:
-        return "sonar", SonarPayload(device, np.asarray(r.image), (float(r.window_start_m), float(r.window_length_m)),
-                                     np.asarray(r.azimuths_rad, dtype=np.float64))
+    def _sonar(r: Any, device: str) -> SonarPayload:
+        return SonarPayload(device, np.asarray(r.image), (float(r.window_start_m), float(r.window_length_m)),
+                            np.asarray(r.azimuths_rad, dtype=np.float64))
 
 
 def _times(events: Sequence[Event], t0_ns: int) -> NDArray[np.float64]:
