@@ -19,6 +19,7 @@ import numpy as np
 from tqdm import tqdm
 
 from auvlink.errors import AuvlinkError
+from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 
 FRAME_BLOCK = 64  # frames per reconstruction call when replaying a log not recorded live
@@ -116,7 +117,6 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     used unless ``engine_config`` is given, so the replay gives the live detections.
     """
     from auvlink.pipeline.engine import Engine, EngineConfig
-    from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
     from logs_format import MissionLogReader, Replay
 
     t_start = time.perf_counter()
@@ -217,7 +217,6 @@ def run_log_batch(log: Path, *, recon_config: Any = None) -> tuple[list[Any], An
     """Reference for tests: the whole mission dead-reckoned at once (non-causal), reconstructed in
     blocks and clustered at the end; returns (objects, trajectory). No classification."""
     from auvlink.pipeline.collect import MissionData
-    from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
     from logs_format import MissionLogReader, Replay
     from recon.nav import dead_reckon
     from recon.pipeline import Reconstructor
