@@ -48,6 +48,8 @@ ROUTES: dict[str, tuple[str, str]] = {
 SONAR_FORMATS: tuple[str, ...] = tuple(f for f, (kind, _) in ROUTES.items() if kind == "sonar")
 #: every wire format a pipeline stage consumes; samples of any other format give no event
 CONSUMED_FORMATS: frozenset[str] = frozenset(ROUTES)
+#: the wire formats of navigation samples (what a navigation-only consumer decodes)
+NAV_FORMATS: frozenset[str] = CONSUMED_FORMATS - frozenset(SONAR_FORMATS)
 
 
 class Event(NamedTuple):
