@@ -73,6 +73,64 @@ def routed(monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, str, str | None]]
     return calls
 
 
+def _sample(device: str, fmt: str, record: Any, t_ns: int = 5_000_000_000) -> Sample:
+    """The sample of ``record`` after a round trip through its wire format (encode, then decode)."""
+    wire = formats.get(fmt)
+    return Sample(device, fmt, t_ns, b"", wire.decode(wire.encode(record)))
+
+
+def test_each_consumed_format_gives_its_event_in_si_units() -> None:
+    from auvlink.codecs import dsp1760, dsp3000, keller, paro, pd0_build
+
+    a = NavAdaptor()
+    ens = pd0_build.build(1, 1.7e9, heading_rad=0.5, pitch_rad=0.01, roll_rad=-0.02, coordinate_system="earth",
+                          bt_velocity_mps=(0.5, -0.25, 0.125, 0.0), bt_range_m=(5.0, 5.5, 6.0, 6.5))
+    ev = a.route(_sample("dvl", "pd0", ens))
+    assert ev is not None and ev.kind == "dvl" and ev.seq == 1
+    assert ev.payload.velocity == (0.5, -0.25, 0.125) and ev.payload.valid and ev.payload.frame == "earth"
+    assert ev.payload.altitude == pytest.approx(5.75) and ev.payload.heading == pytest.approx(0.5, abs=1e-3)
+    two_ranges = pd0_build.build(2, 1.7e9, bt_velocity_mps=(0.5, 0.0, 0.0, 0.0),
+                                 bt_range_m=(5.0, 5.0, float("nan"), float("nan")))
+    ev = a.route(_sample("dvl", "pd0", two_ranges))
+    assert ev is not None and np.isnan(ev.payload.altitude)  # fewer than 3 beams: no altitude
+    assert a.route(_sample("dvl", "pd0", pd0_build.build(3, 1.7e9))) is None  # no bottom track: no event
+    ev = a.route(_sample("fog", "dsp1760", dsp1760.build((0.0, 0.0, 0.02), (0.0, 0.0, 9.8), sequence=1)))
+    assert ev is not None and ev.kind == "gyro" and ev.payload == pytest.approx((0.0, 0.0, 0.02), abs=1e-7)
+    assert a.gyro_kind == "rate"
+    ev = a.route(_sample("fog", "dsp3000_incremental", dsp3000.build(1e-4, mode="incremental")))
+    assert ev is not None and ev.payload == pytest.approx((0.0, 0.0, 1e-4), rel=1e-4) and a.gyro_kind == "delta"
+    ev = a.route(_sample("p", "paro", paro.build_reading(2.0e5)))
+    assert ev is not None and ev.kind == "depth" and ev.payload == pytest.approx(2.0e5, rel=1e-6)
+    assert a.route(_sample("p", "keller", keller.build_pressure_response(1, 3.0e5))) is None  # no request
+    assert a.route(_sample("p", "keller", keller.KellerReadRequest(1, 1))) is None
+    ev = a.route(_sample("p", "keller", keller.build_pressure_response(1, 3.0e5)))
+    assert ev is not None and ev.kind == "depth" and ev.payload == pytest.approx(3.0e5, rel=1e-6)
+    from auvlink.codecs import can_nav
+
+    assert a.route(_sample("can", "can", can_nav.build(can_nav.message_names()[0]))) is None
+    assert a.counts == {"dvl": 3, "fog": 2, "p": 4, "can": 1} and a.seq == 6
+
+
+def test_navigation_takes_instrument_ship_or_earth_velocities_only() -> None:
+    from auvlink.pipeline.nav_inputs import Event, velocity_frame
+    from recon.errors import GeometryError
+
+    assert [velocity_frame(f) for f in ("instrument", "ship", "earth")] == ["instrument", "ship", "earth"]
+    a = NavAdaptor()
+    ev = a.route(Sample("dvl", "pd0", 0, b"", _beam_ensemble()))
+    assert isinstance(ev, Event)
+    with pytest.raises(GeometryError, match=r"'beam' coordinates.*EX command"):
+        a.nav_inputs([ev], 0)
+
+
+def _beam_ensemble() -> Any:
+    from auvlink.codecs import pd0_build
+
+    wire = formats.get("pd0")
+    return wire.decode(wire.encode(pd0_build.build(1, 1.7e9, coordinate_system="beam",
+                                                   bt_velocity_mps=(0.1, 0.1, 0.1, 0.1), bt_range_m=(5.0,) * 4)))
+
+
 def test_replay_decodes_only_the_consumed_channels(mission: tuple[Path, Counter[str]], can_decodes: list[int]
                                                    ) -> None:
     path, counts = mission

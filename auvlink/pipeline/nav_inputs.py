@@ -29,13 +29,15 @@ path once.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from auvlink.codecs import keller
 from auvlink.records import Sample
+from recon.errors import GeometryError
+from recon.frames import VelocityFrame
 from recon.nav import DepthSamples, DvlSamples, GyroSamples
 
 #: wire format -> (event kind, the :class:`NavAdaptor` method that makes the payload); the one table of
@@ -50,6 +52,10 @@ SONAR_FORMATS: tuple[str, ...] = tuple(f for f, (kind, _) in ROUTES.items() if k
 CONSUMED_FORMATS: frozenset[str] = frozenset(ROUTES)
 #: the wire formats of navigation samples (what a navigation-only consumer decodes)
 NAV_FORMATS: frozenset[str] = CONSUMED_FORMATS - frozenset(SONAR_FORMATS)
+#: PD0 coordinate systems navigation takes (``beam`` velocities need the beam geometry: not supported)
+PD0_FRAMES: dict[str, VelocityFrame] = {"instrument": "instrument", "ship": "ship", "earth": "earth"}
+
+GyroKind = Literal["rate", "delta"]
 
 
 class Event(NamedTuple):
@@ -92,7 +98,7 @@ class NavAdaptor:
 
     def __init__(self) -> None:
         self.seq = 0
-        self.gyro_kind = "rate"
+        self.gyro_kind: GyroKind = "rate"
         self.counts: dict[str, int] = {}
         self._keller_request: dict[int, keller.KellerReadRequest] = {}
         self._routes: dict[str, tuple[str, Callable[[Any, str], Any]]] = {
@@ -162,20 +168,29 @@ def _times(events: Sequence[Event], t0_ns: int) -> NDArray[np.float64]:
     return np.array([(e.t_ns - t0_ns) * 1e-9 for e in events], dtype=np.float64)
 
 
+def velocity_frame(pd0_coordinate_system: str) -> VelocityFrame:
+    """The :mod:`recon.frames` name of a PD0 coordinate system (GeometryError for ``beam``)."""
+    frame = PD0_FRAMES.get(pd0_coordinate_system)
+    if frame is None:
+        raise GeometryError(f"the DVL reports velocities in {pd0_coordinate_system!r} coordinates; navigation "
+                            f"takes {', '.join(PD0_FRAMES)}: set the DVL's coordinate transformation (EX command)")
+    return frame
+
+
 def dvl_samples(events: Sequence[Event], t0_ns: int) -> DvlSamples:
     """DVL events -> :class:`recon.nav.DvlSamples` (frame: the last event's; ``instrument`` with none)."""
     pl: list[DvlPayload] = [e.payload for e in events]
     return DvlSamples(t=_times(events, t0_ns), velocity=np.array([x.velocity for x in pl], np.float64).reshape(-1, 3),
-                      frame=pl[-1].frame if pl else "instrument",  # type: ignore[arg-type]
+                      frame=velocity_frame(pl[-1].frame) if pl else "instrument",
                       valid=np.array([x.valid for x in pl], bool), altitude=np.array([x.altitude for x in pl]),
                       heading=np.array([x.heading for x in pl]), pitch=np.array([x.pitch for x in pl]),
                       roll=np.array([x.roll for x in pl]))
 
 
-def gyro_samples(events: Sequence[Event], t0_ns: int, kind: str) -> GyroSamples:
-    """Gyro events -> :class:`recon.nav.GyroSamples` of ``kind`` (``rate`` or ``delta``)."""
+def gyro_samples(events: Sequence[Event], t0_ns: int, kind: GyroKind) -> GyroSamples:
+    """Gyro events -> :class:`recon.nav.GyroSamples` of ``kind`` (``rate``: rad/s, ``delta``: rad)."""
     return GyroSamples(t=_times(events, t0_ns), value=np.array([e.payload for e in events], np.float64).reshape(-1, 3),
-                       kind=kind)  # type: ignore[arg-type]
+                       kind=kind)
 
 
 def depth_samples(events: Sequence[Event], t0_ns: int) -> DepthSamples:
@@ -183,7 +198,7 @@ def depth_samples(events: Sequence[Event], t0_ns: int) -> DepthSamples:
     return DepthSamples(t=_times(events, t0_ns), pressure_pa=np.array([e.payload for e in events], np.float64))
 
 
-def nav_inputs(events: Sequence[Event], t0_ns: int, gyro_kind: str = "rate") -> NavInputs:
+def nav_inputs(events: Sequence[Event], t0_ns: int, gyro_kind: GyroKind = "rate") -> NavInputs:
     """The navigation events of ``events`` (in their order; sonar events ignored) as :mod:`recon.nav` inputs."""
     dvl = [e for e in events if e.kind == "dvl"]
     gyro = [e for e in events if e.kind == "gyro"]
