@@ -22,7 +22,6 @@ from typing import Any
 
 from auvlink.clock import now_ns
 from auvlink.decoder import Decoder, DecoderStats
-from auvlink.formats import WireFormat
 from auvlink.framing.base import Framer
 from auvlink.records import Sample
 from auvlink.transports.base import Transport, transport_class
@@ -37,17 +36,10 @@ class Driver:
 
     def __init__(self, name: str, fmt: str, transport: str | Transport) -> None:
         self.decoder = Decoder(name, fmt)
+        self.name, self.format = name, self.decoder.format  # (the decoder's, as plain attributes: per frame)
         self.transport = transport_class(transport)(transport) if isinstance(transport, str) else transport
         self._raw_listeners: list[tuple[Callable[..., None], bool]] = []
         self._sample_listeners: list[SampleListener] = []
-
-    @property
-    def name(self) -> str:
-        return self.decoder.name
-
-    @property
-    def format(self) -> WireFormat:
-        return self.decoder.format
 
     @property
     def framer(self) -> Framer:
