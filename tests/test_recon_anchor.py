@@ -133,8 +133,8 @@ def test_two_wild_fixes_of_three_give_no_anchor() -> None:
     assert a.start_anchor is None  # fewer than min_fixes inliers: no anchor rather than a bad one
 
 
-def test_router_takes_gga_and_rmc_only_from_receivers_without_gga() -> None:
-    from auvlink.pipeline.route import Router
+def test_adaptor_takes_gga_and_rmc_only_from_receivers_without_gga() -> None:
+    from auvlink.pipeline.nav_inputs import NavAdaptor
     from auvlink.records import Sample
 
     gga = nmea.build_gga(10.0, 36.0412, 129.3915)
@@ -144,7 +144,7 @@ def test_router_takes_gga_and_rmc_only_from_receivers_without_gga() -> None:
     def sample(dev: str, rec: object, k: int) -> Sample:
         return Sample(dev, "nmea", k, b"", rec)
 
-    r = Router()
+    r = NavAdaptor()
     assert r.route(sample("rmc_only", rmc, 1)).kind == "gnss"  # type: ignore[union-attr]
     assert r.route(sample("rmc_only", zda, 2)) is None
     ev = r.route(sample("gga", gga, 3))

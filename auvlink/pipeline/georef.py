@@ -1,12 +1,13 @@
 """The engine's georeferencing: GNSS fixes -> the anchor of dead reckoning, the site datum, lat/lon.
 
 The engine feeds :class:`Georef` the navigation depth samples and the GNSS fixes (routed from the
-``nmea`` device as :class:`GnssPayload`), in time order, with the causal navigator for the pose at
-each fix. :class:`recon.nav_anchor.GnssAnchor` does the anchoring; this class holds the datum
-(the vehicle configuration's ``[site]``; without one, the first fix with a position becomes the
-datum and the summary says so), converts fixes to W (PROJ, :mod:`auvlink.geodesy`) and positions of
-dead reckoning's frame D to W: ``p_W = p_D + offset`` (live: the start anchor) ``+ correction(t)``
-(at the end: the closure error distributed over the submerged track).
+``nmea`` device as :class:`GnssPayload` by :class:`auvlink.pipeline.nav_inputs.NavAdaptor`), in time
+order, with the causal navigator for the pose at each fix. :class:`recon.nav_anchor.GnssAnchor` does
+the anchoring; this class holds the datum (the vehicle configuration's ``[site]``; without one, the
+first fix with a position becomes the datum and the summary says so), converts fixes to W (PROJ,
+:mod:`auvlink.geodesy`) and positions of dead reckoning's frame D to W: ``p_W = p_D + offset`` (live:
+the start anchor) ``+ correction(t)`` (at the end: the closure error distributed over the submerged
+track).
 """
 
 from __future__ import annotations
