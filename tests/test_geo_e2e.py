@@ -130,3 +130,25 @@ def test_without_gnss_the_outputs_say_positions_are_relative(tmp_path: Path) -> 
     assert not (out / "detections.geojson").exists()
     lines = [json.loads(x) for x in (out / "detections.jsonl").read_text().splitlines()]
     assert lines and all(d["frame"] == "first_navigation_sample" and "lat" not in d for d in lines)
+
+
+def test_scoring_goes_through_lat_lon_when_the_datums_differ() -> None:
+    from auvlink.geodesy import Datum
+    from auvlink.pipeline.results import Detection
+    from auvlink.pipeline.scoring import score_detections
+    from auvlink.pipeline.setup import MissionSetup, TruthObject
+
+    site, other = Datum(*SITE), Datum(36.0400, 129.3900)  # the simulator's datum, the run's (e.g. a first fix)
+    ne = np.array([[10.0, 5.0], [-20.0, 3.0]])
+    lat, lon, _ = site.to_geodetic(np.column_stack([ne, np.zeros(2)]))
+    truth = tuple(TruthObject("box", (n, e, 10.0), 0.0, float(a), float(b))
+                  for (n, e), a, b in zip(ne, lat, lon, strict=True))
+    dets = [Detection(i, "box", 1.0, (float(p[0]), float(p[1]), 10.0), (1.0, 1.0, 1.0), 10, 0.0, 1.0,
+                      np.zeros((0, 3))) for i, p in enumerate(other.to_ned(lat, lon))]
+    res = MissionResult(None, MissionSetup(truth=truth), dets, np.zeros((0, 3)),
+                        georef={"georeferenced": True, "datum": other.to_dict()})
+    s = score_detections(res)
+    assert s is not None and s["matched"] == 2 and s["centroid_error_mean_m"] < 1e-3
+    res.georef = {}  # no georeference: the stored NED, another frame: nothing matches
+    s = score_detections(res)
+    assert s is not None and s["matched"] == 0

@@ -32,6 +32,8 @@ class TruthObject:
     class_name: str
     position_ned: tuple[float, float, float]
     heading_deg: float = 0.0
+    latitude: float | None = None  # WGS84 deg (the simulator's truth carries them with its datum)
+    longitude: float | None = None
 
 
 @dataclass(frozen=True)
@@ -113,7 +115,9 @@ def _truth_objects(gt: object) -> list[TruthObject]:
             continue
         try:
             p = [float(v) for v in pos] + [math.nan] * (3 - len(pos))
-            out.append(TruthObject(str(name), (p[0], p[1], p[2]), float(obj.get("heading_deg", 0.0))))
+            lat, lon = obj.get("latitude"), obj.get("longitude")
+            out.append(TruthObject(str(name), (p[0], p[1], p[2]), float(obj.get("heading_deg", 0.0)),
+                                   None if lat is None else float(lat), None if lon is None else float(lon)))
         except (TypeError, ValueError):
             continue
     return out
