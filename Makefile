@@ -17,10 +17,11 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/auvlink demo
+	$(BIN)/auvlink demo --force  # make demo regenerates demo-out/ (auvlink demo alone keeps an existing one)
 
 lint: $(STAMP)
 	$(BIN)/ruff check auvlink logs_format recon classify tests benchmarks
+	$(BIN)/lint-imports  # the layers and no import cycle (contracts in .importlinter)
 
 typecheck: $(STAMP)
 	$(BIN)/mypy

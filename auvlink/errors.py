@@ -77,3 +77,8 @@ class ConfigError(AuvlinkError):
         self.key = key
         self.problem = problem
         self.fix = fix
+
+
+# --- outputs -----------------------------------------------------------------------------
+class OutputError(AuvlinkError):
+    """An output path cannot be used: it exists (without ``--force``), is an input, or cannot be written."""

@@ -15,6 +15,7 @@ from typing import Any
 
 import torch
 
+from auvlink.atomic import atomic_path
 from classify.errors import CheckpointError
 from classify.pointnet import PointNet, PointNetConfig
 
@@ -48,10 +49,11 @@ def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_p
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
-    torch.save({"format": FORMAT, "state_dict": state, "model_config": _plain(model.cfg.to_dict()),
-                "class_names": list(class_names), "n_points": int(n_points),
-                "synthesis": _plain(synthesis or {}), "train": _plain(train or {}),
-                "metrics": _plain(metrics or {})}, path)
+    with atomic_path(path) as tmp:  # renamed when whole: an interrupted save never leaves half a checkpoint
+        torch.save({"format": FORMAT, "state_dict": state, "model_config": _plain(model.cfg.to_dict()),
+                    "class_names": list(class_names), "n_points": int(n_points),
+                    "synthesis": _plain(synthesis or {}), "train": _plain(train or {}),
+                    "metrics": _plain(metrics or {})}, tmp)
     return path
 
 

@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from auvlink.atomic import atomic_path
+
 LOOKALIKE_PAIRS: tuple[tuple[str, str], ...] = (("sphere", "hemisphere"), ("pipe", "half_pipe"))
 
 
@@ -90,7 +92,7 @@ class EvalReport:
 
 def plot_confusion(report: EvalReport, path: Path, title: str = "") -> Path:
     """Write the confusion matrix (row-normalized colours, counts written in) as a PNG."""
-    import matplotlib
+    import matplotlib  # lazy: matplotlib loads only when a figure is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -112,7 +114,7 @@ def plot_confusion(report: EvalReport, path: Path, title: str = "") -> Path:
     ax.set_title(title or f"accuracy {report.accuracy:.3f} (n={report.n})")
     fig.tight_layout()
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
     return path

@@ -17,6 +17,7 @@ from typing import Any
 
 from auvlink import formats
 from auvlink.errors import AuvlinkError, EncodeError
+from auvlink.framing.can_frames import message_to_frame
 from logs_format.profile import LogError
 from logs_format.writer import MissionLogWriter
 
@@ -43,16 +44,15 @@ def is_can_log(path: str | Path) -> bool:
 
 
 def _writer(out: str | Path, compression: str) -> MissionLogWriter:
-    return MissionLogWriter(out, compression=compression, flush_interval=0, fsync=False)
+    # derived from a file that is still there: a failed import leaves ``out`` as it was (keep_failed=False)
+    return MissionLogWriter(out, compression=compression, flush_interval=0, fsync=False, keep_failed=False)
 
 
 def import_can_log(
     src: str | Path, out: str | Path, *, device: str = "can", compression: str = "zstd"
 ) -> ImportResult:
     """A python-can log file -> a mission log with one ``can`` channel named ``device``."""
-    import can
-
-    from auvlink.framing.can_frames import message_to_frame
+    import can  # lazy: python-can (0.2 s) loads only to import a CAN log, not with every logs_format import
 
     src = Path(src)
     result = ImportResult(Path(out))
@@ -70,7 +70,14 @@ def import_can_log(
                 continue
             log(device, "can", max(0, round(msg.timestamp * 1e9)), raw)
             result.frames += 1
+        _no_frames(src, result)
     return result
+
+
+def _no_frames(src: Path, result: ImportResult) -> None:
+    """An import that found nothing writes nothing (inside the writer's block: ``out`` keeps what it had)."""
+    if not result.frames:
+        raise LogError(f"{src}: no whole frame found (is the format right?)")
 
 
 def import_serial_capture(
@@ -130,5 +137,6 @@ def import_serial_capture(
             if not block:
                 break
         result.framer = framer.stats.as_dict()
+        _no_frames(src, result)
         log.add_metadata("import", {**meta, "framer": result.framer})
     return result

@@ -9,6 +9,15 @@ Chunks are compressed (zstd by default, lz4 or none), closed when they reach ``c
 *and* at least every ``flush_interval`` seconds (a background thread closes an idle chunk), then
 written and optionally fsync'ed: a crash (kill -9, power loss) loses at most the last interval.
 Thread-safe: drivers on several threads may share one writer.
+
+The log is written as ``LOG.mcap.partial`` and renamed to ``LOG.mcap`` by :meth:`close`, so an
+existing ``LOG.mcap`` (replaced only when the command line said ``--force``) keeps its content until
+the new log is complete, and a run cut off by kill -9 or a power loss leaves ``LOG.mcap.partial``,
+readable up to its last complete chunk. A write that fails (disk full, device gone) raises
+:class:`~logs_format.profile.LogError` once; the file is then closed without its summary section
+(readable up to its last complete chunk) and, with ``keep_failed`` (a recording: the only copy of
+the data), renamed to ``LOG.mcap`` all the same; without it (a log derived from files that are still
+there: ``sim``, ``log import``) it is removed and ``LOG.mcap`` keeps what it had.
 """
 
 from __future__ import annotations
@@ -19,6 +28,7 @@ import struct
 import threading
 import time
 from collections.abc import Mapping
+from contextlib import suppress
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -27,10 +37,12 @@ from typing import TYPE_CHECKING, Any
 
 from mcap.writer import LIBRARY_IDENTIFIER, Writer
 
-from auvlink import __version__, formats
+from auvlink import formats
+from auvlink.atomic import partial_path, write_target
 from auvlink.clock import now_ns
 from auvlink.errors import UnknownFormatError
 from auvlink.jsonutil import dumps
+from auvlink.version import __version__
 from logs_format.profile import (
     JSON_MESSAGE_ENCODING,
     JSON_SCHEMA_ENCODING,
@@ -44,6 +56,7 @@ from logs_format.profile import (
     metadata_strings,
     wire_channel,
 )
+from logs_format.selfcontained import repeat_definitions
 
 if TYPE_CHECKING:
     from auvlink.config import VehicleConfig
@@ -83,18 +96,28 @@ class MissionLogWriter:
         flush_interval: float = DEFAULT_FLUSH_INTERVAL,
         fsync: bool = True,
         software: bool = True,
+        atomic: bool = True,
+        keep_failed: bool = True,
     ) -> None:
         if flush_interval < 0 or chunk_size <= 0:
             raise LogError("flush_interval must be >= 0 and chunk_size > 0")
         self.path = Path(path)
         self.flush_interval = flush_interval
         self.fsync = fsync
+        self.keep_failed = keep_failed
         kind = compression_type(compression)
+        self._target = write_target(self.path)
+        #: where the bytes go until :meth:`close` renames them to ``path`` (``path`` itself without ``atomic``)
+        self.partial = partial_path(self._target) if atomic else self.path
         try:
-            self._file = open(self.path, "wb")
+            self._file = open(self.partial, "xb" if atomic else "wb")
+        except FileExistsError as exc:
+            raise LogError(f"cannot create log {self.path}: {self.partial} exists (a run cut off, or one "
+                           "still writing: rename it to keep it)") from exc
         except OSError as exc:
             raise LogError(f"cannot create log {self.path}: {exc.strerror or exc}") from exc
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=kind)
+        repeat_definitions(self._mcap)  # every chunk names its channels: readable alone after damage
         self._lock = threading.Lock()
         self._channels: dict[str, ChannelStats] = {}
         self._schemas: dict[tuple[str, str], int] = {}
@@ -246,7 +269,15 @@ class MissionLogWriter:
             self._guard(lambda: os.fsync(self._file.fileno()))
 
     def close(self) -> None:
-        """Write the last chunk and the summary, and close the file (idempotent)."""
+        """Write the last chunk and the summary, close the file and rename it to ``path`` (idempotent).
+        A failure raises :class:`LogError` once, never a bare ``OSError`` (see the module docstring)."""
+        self._shutdown(finish=True)
+
+    def abort(self) -> None:
+        """Close without the summary; the file is removed unless ``keep_failed`` (then as :meth:`close`)."""
+        self._shutdown(finish=self.keep_failed)
+
+    def _shutdown(self, finish: bool) -> None:
         self._stop.set()
         if self._flusher is not None and self._flusher is not threading.current_thread():
             self._flusher.join()
@@ -254,14 +285,38 @@ class MissionLogWriter:
             if self._closed:
                 return
             self._closed = True
+            failed_before = self._error is not None
+            error: LogError | None = None
             try:
-                if self._error is None:
+                if finish and not failed_before:
                     self._guard(self._mcap.finish)
                     self._guard(self._file.flush)
                     if self.fsync:
                         self._guard(lambda: os.fsync(self._file.fileno()))
-            finally:
-                self._file.close()
+            except LogError as exc:
+                error = exc
+            try:
+                self._file.close()  # flushes the buffer: fails on a full disk; the descriptor is closed anyway
+            except OSError as exc:
+                self._error = self._error or exc
+                if finish and error is None and not failed_before:
+                    error = LogError(f"writing {self.path} failed: {exc.strerror or exc}")
+            self._commit(finish and (self._error is None or self.keep_failed))
+        if error is not None:
+            raise error
+
+    def _commit(self, keep: bool) -> None:
+        if self.partial == self.path:
+            return
+        if not keep:
+            with suppress(OSError):
+                os.unlink(self.partial)
+            return
+        try:
+            os.replace(self.partial, self._target)
+        except OSError as exc:
+            raise LogError(f"cannot rename {self.partial} to {self.path}: {exc.strerror or exc} "
+                           f"(the log is in {self.partial})") from exc
 
     @property
     def closed(self) -> bool:
@@ -283,4 +338,10 @@ class MissionLogWriter:
     def __exit__(
         self, et: type[BaseException] | None, ev: BaseException | None, tb: TracebackType | None
     ) -> None:
-        self.close()
+        if et is None:
+            self.close()
+        elif self.keep_failed:  # a recording: keep what it holds, closed cleanly where the disk allows
+            with suppress(LogError):
+                self.close()
+        else:
+            self.abort()

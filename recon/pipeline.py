@@ -319,7 +319,8 @@ class Reconstructor:
         keep = (h >= self._min_height(model)) & (h <= self.config.seabed.max_height)
         if isinstance(model, TexturedSeabed):
             thr = self._min_height(model)
-            keep |= self._flanks(p, keep & (h >= max(2.0 * self.config.min_object_height, 3.0 * thr)), model, thr)
+            keep |= self._flanks(p, keep & (h >= max(2.0 * self.config.min_object_height, 3.0 * thr)), model,
+                                 self.config.seabed.min_height)
         self.seabed_removed += int((~keep).sum())
         return p[keep], t[keep], e[keep]
 
@@ -338,8 +339,8 @@ class Reconstructor:
 
     def _objects_on_seabed(self, objects: list[DetectedObject]) -> list[DetectedObject]:
         """Each object with the depth of the seabed under it (the poll's model), and the clutter tests:
-        wider than any object, or its top (95th percentile) lower than ``min_object_height`` and than the
-        measured noise threshold, is not an object (counted in :attr:`rejected`)."""
+        wider than any object, or its top (95th percentile) lower than ``min_object_height`` above the
+        tiled planes, is not an object (counted in :attr:`rejected`)."""
         model, out = self.seabed, []
         if objects and isinstance(model, TexturedSeabed):
             lo = np.min([o.points[:, :2].min(axis=0) for o in objects], axis=0)
@@ -356,7 +357,7 @@ class Reconstructor:
                 planes = model.coarse if isinstance(model, TexturedSeabed) else model
                 ground = planes.depth_at(o.points[:, :2])
                 top = float(np.percentile(ground - o.points[:, 2], 95))
-                if top < max(self.config.min_object_height, self._min_height(model)):
+                if top < self.config.min_object_height:
                     self.rejected["too_low"] += 1
                     continue
                 o = replace(o, seabed_depth=float(np.median(ground)))

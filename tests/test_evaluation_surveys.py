@@ -85,7 +85,8 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     assert data["seed"] == 5 and len(data["surveys"]) == 2
     for r, d in zip(data["surveys"], (draw_survey(5, 0, True), draw_survey(5, 1, True)), strict=True):
         assert r["draw"]["objects"] == [list(o) for o in d.objects]
-        assert (Path(r["folder"]) / "detections.jsonl").is_file() and not (Path(r["folder"]) / "mission.mcap").exists()
+        folder = Path(r["folder"])
+        assert (folder / "out" / "detections.jsonl").is_file() and not (folder / "mission.mcap").exists()
         assert r["sonar_frames"] > 100 and r["score"]["objects"] == 2
     o = res["overall"]
     assert o["objects"] == 4 and o["detections"] >= 1

@@ -40,7 +40,7 @@ def _limit_file_size() -> None:  # in the child: writes past LIMIT fail with EFB
 def test_a_full_disk_stops_the_run_cleanly_and_keeps_what_was_written(tmp_path: Path) -> None:
     cfg = vehicle_config(tmp_path)
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "auvlink", "live", str(cfg), "--out", str(out), "--no-report", "--duration", "40",
+    cmd = [sys.executable, "-m", "auvlink", "live", str(cfg), "--out", str(out), "--duration", "40",
            "--backoff-max", "0.2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
                             preexec_fn=_limit_file_size, env={**os.environ, "PYTHONUNBUFFERED": "1"})
@@ -60,9 +60,10 @@ def test_a_full_disk_stops_the_run_cleanly_and_keeps_what_was_written(tmp_path: 
     assert len(err) == 1 and err[0].startswith("auvlink: error: writing the mission log"), err
     assert "File too large" in err[0] and "stopped cleanly" in err[0]
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["log_loss"] and summary["recon"]["frames"] > 0
+    assert summary["log_loss"] and summary["recon"]["frames"] > 0 and summary["unwritten"] == []
+    assert "report:" in stdout and (out / "report.html").stat().st_size > 0  # DIR written all the same
     log = out / "mission.mcap"
-    assert 0 < log.stat().st_size <= LIMIT
+    assert 0 < log.stat().st_size <= LIMIT and not (out / "mission.mcap.partial").exists()
     with MissionLogReader(log) as reader:
         n = sum(1 for _ in reader.messages())
         assert not reader.complete

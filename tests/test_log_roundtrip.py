@@ -192,14 +192,16 @@ def test_flush_interval_closes_idle_chunks(tmp_path: Path) -> None:
     path = tmp_path / "m.mcap"
     with MissionLogWriter(path, flush_interval=0.1, chunk_size=1 << 20) as log:
         log("fog", "dsp1760", T0, gyro_frame(0))
-        size0 = path.stat().st_size
+        open_path = log.partial  # m.mcap.partial until closed (what a crash leaves), then renamed
+        assert open_path.name == "m.mcap.partial" and not path.exists()
+        size0 = open_path.stat().st_size
         deadline = time.monotonic() + 2.0
-        while path.stat().st_size == size0 and time.monotonic() < deadline:
+        while open_path.stat().st_size == size0 and time.monotonic() < deadline:
             time.sleep(0.01)
-        with MissionLogReader(path) as r:  # readable while the writer is still open
+        with MissionLogReader(open_path) as r:  # readable while the writer is still open
             assert [m.data for m in r.messages()] == [gyro_frame(0)]
             assert not r.complete
-    assert path.stat().st_size > size0
+    assert path.stat().st_size > size0 and not open_path.exists()
 
 
 def test_writer_errors(tmp_path: Path) -> None:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from auvlink.atomic import partial_path
 from auvlink.codecs import dsp1760
 from logs_format import MissionLogReader, MissionLogWriter, log_info, replay_samples
 
@@ -143,6 +144,8 @@ def test_sigkill_mid_write_replays(tmp_path: Path) -> None:
         if proc.stdout is not None:
             proc.stdout.close()
     assert proc.returncode == -signal.SIGKILL
+    assert not path.exists()  # renamed only when closed: a killed writer leaves killed.mcap.partial
+    path = partial_path(path)
     with MissionLogReader(path) as log:
         msgs = list(log.messages(channels=["fog"]))
         assert not log.complete

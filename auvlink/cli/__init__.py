@@ -2,7 +2,8 @@
 
 Each subcommand module defines ``add_arguments(parser)`` and ``run(args) -> int``.
 Errors from the package print one line on stderr (``auvlink: error: ...``) and exit 1; never a
-traceback unless ``AUVLINK_DEBUG=1``.
+traceback unless ``AUVLINK_DEBUG=1``. So does an ``OSError`` that reaches here (a full disk, a path
+that cannot be written): one line naming the file and the reason. Usage errors exit 2 (argparse).
 """
 
 from __future__ import annotations
@@ -14,8 +15,8 @@ import os
 import sys
 from collections.abc import Sequence
 
-from auvlink import __version__
 from auvlink.errors import AuvlinkError
+from auvlink.version import __version__
 
 #: subcommand -> (module, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -71,6 +72,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except OSError as exc:  # disk full, a folder gone: outputs are written atomically, so nothing is half
+        if os.environ.get("AUVLINK_DEBUG"):
+            raise
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"auvlink: error: cannot write or read{where}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
     return code
 
 

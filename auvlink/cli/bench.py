@@ -25,6 +25,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from auvlink.atomic import write_text
 from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import to_jsonable
 
@@ -135,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
         except (OSError, ValueError):
             previous = {}
     results["stages"] = {**previous, **results["stages"]}
-    path.write_text(json.dumps(to_jsonable(results), indent=2, allow_nan=False) + "\n")
+    write_text(path, json.dumps(to_jsonable(results), indent=2, allow_nan=False) + "\n")  # atomic: never half
     print(f"\nresults: {path}")
     print(f"report: {render_report(args.out)}")
     print(f"{len(stages)} stage(s) in {results['wall_s']:.1f} s; load average {load_before[0]:.2f} -> "

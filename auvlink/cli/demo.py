@@ -1,4 +1,8 @@
-"""``auvlink demo``: the shipped scene -> simulated mission log -> replay -> report. No arguments needed."""
+"""``auvlink demo``: the shipped scene -> simulated mission log -> replay -> report. No arguments needed.
+
+The output folder (default ``demo-out``) must be new or empty unless ``--force``; the log and the
+replay outputs are each written under a temporary name and renamed when whole.
+"""
 
 from __future__ import annotations
 
@@ -6,21 +10,28 @@ import argparse
 import time
 from pathlib import Path
 
+from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.sim.scene import load_default_scene, load_scene
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("demo-out"), help="output folder (default demo-out)")
     p.add_argument("--scene", type=Path, default=None, help="scene TOML (default: the shipped scene)")
     p.add_argument("--seed", type=int, default=None, help="override the scene's seed")
+    p.add_argument("--force", action="store_true", help="write into a non-empty output folder (replacing its files)")
 
 
 def run(args: argparse.Namespace) -> int:
+    # lazy: Open3D, trimesh, SciPy and matplotlib (the parser imports every subcommand module)
+
+    check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
+    log = args.out / "mission.mcap"
+    check_output_file(log, force=True, inputs=[args.scene], what="log")  # a leftover mission.mcap.partial
     from auvlink.cli.replay import process, scores_line
     from auvlink.sim.mission import simulate_to_log
-    from auvlink.sim.scene import load_default_scene, load_scene
 
     scene = load_scene(args.scene) if args.scene else load_default_scene()
     args.out.mkdir(parents=True, exist_ok=True)
-    log = args.out / "mission.mcap"
     t0 = time.perf_counter()
     print(f"[1/2] simulating the mission -> {log}")
     simulate_to_log(scene, log, seed=args.seed, progress=True)

@@ -6,7 +6,7 @@ through the inference path and writes ``DIR/eval.json`` (precision, recall, F1 p
 confusion matrix, look-alike pair confusions) and ``DIR/confusion.png``.
 
 ``--recon``: evaluate instead on clouds that recon reconstructs from simulated passes over single
-objects (:mod:`classify.recon_eval`: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets per
+objects (:mod:`auvlink.evaluation.recon_eval`: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets per
 class, seed 11; with ``--quick`` 3 headings x 1 tilt x 2 altitudes), cached under ``--cache``.
 
 ``--surveys N [--seed S] [--workers K] [--json] [--keep-logs]``: instead, draw N random surveys
@@ -18,6 +18,9 @@ and ``DIR/surveys.png`` and prints the table (``--json``: the pooled figures as 
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
 simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
 and write ``DIR/baseline2d.json`` and ``DIR/baseline2d_confusion.png`` beside the PointNet figures.
+
+DIR must be new or empty unless ``--force`` (checked before any work); each file is written under a
+temporary name and renamed when whole.
 """
 
 from __future__ import annotations
@@ -26,6 +29,9 @@ import argparse
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from auvlink.atomic import check_output_dir, check_output_file, write_text
+from auvlink.jsonutil import to_jsonable
 
 if TYPE_CHECKING:
     from classify.evaluate import EvalReport
@@ -49,12 +55,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--keep-logs", action="store_true", help="--surveys: keep each survey's mission.mcap")
     p.add_argument("--baseline2d", action="store_true",
                    help="also train and evaluate the single-image 2D CNN baseline (a few minutes)")
+    p.add_argument("--force", action="store_true", help="write into a non-empty DIR (files of the same names replaced)")
 
 
 def run(args: argparse.Namespace) -> int:
     if args.surveys is not None:
         return _surveys(args)
-    from auvlink.jsonutil import to_jsonable
+    # lazy: PyTorch, Open3D and SciPy load only for this command (the parser imports every subcommand module)
+    from auvlink.evaluation.recon_eval import evaluate_recon, reconstruct_set, standard_passes
+
+    check_output_dir(args.out, force=args.force)  # before any work (and before torch loads)
+    if args.model is not None:
+        for name in ("eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png"):
+            check_output_file(args.out / name, force=True, inputs=[args.model], what="result")
     from classify.dataset import default_cache_dir
     from classify.evaluate import plot_confusion
     from classify.infer import Classifier
@@ -64,8 +77,6 @@ def run(args: argparse.Namespace) -> int:
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     extra: dict[str, object] = {}
     if args.recon:
-        from classify.recon_eval import evaluate_recon, reconstruct_set, standard_passes
-
         clouds = reconstruct_set(clf.class_names, standard_passes(args.quick), progress=True, cache_dir=cache)
         report, missed = evaluate_recon(clf, clouds)
         extra = {"source": "recon clouds of simulated passes", "passes": len(clouds), "not_detected": missed}
@@ -78,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         title = f"held-out synthesized clouds (n={report.n})"
     args.out.mkdir(parents=True, exist_ok=True)
     result = {"model": str(args.model or "default"), "n_points": clf.n_points, **extra, **report.to_dict()}
-    (args.out / "eval.json").write_text(json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
+    write_text(args.out / "eval.json", json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
     png = plot_confusion(report, args.out / "confusion.png", title=title)
     print(report.text())
     print(f"written: {args.out / 'eval.json'}, {png}")
@@ -88,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Path | None, pointnet: EvalReport) -> None:
-    from auvlink.jsonutil import to_jsonable
+    # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)
     from classify.baseline2d import CNNConfig
     from classify.baseline_eval import run_baseline2d
     from classify.baseline_images import ImageSettings
@@ -98,7 +109,7 @@ def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Pat
     rep = out.report
     result = {"source": "single simulated sonar images (held-out headings, tilts, altitudes)", "n_train": out.n_train,
               "render_seconds": out.render_seconds, "train_seconds": out.result.seconds, **rep.to_dict()}
-    (args.out / "baseline2d.json").write_text(json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
+    write_text(args.out / "baseline2d.json", json.dumps(to_jsonable(result), indent=2, allow_nan=False) + "\n")
     png = plot_confusion(rep, args.out / "baseline2d_confusion.png", title=f"2D CNN, single images (n={rep.n})")
     print("\n2D baseline (one sonar image per object):")
     print(rep.text())
@@ -118,6 +129,7 @@ def _surveys(args: argparse.Namespace) -> int:
         raise AuvlinkError(f"--surveys must be >= 1, got {args.surveys}")
     if args.workers < 1:
         raise AuvlinkError(f"--workers must be >= 1, got {args.workers}")
+    check_output_dir(args.out, force=args.force)  # the surveys' folders of an earlier run are replaced
     seed = 1 if args.seed is None else args.seed
     result = run_surveys(args.surveys, seed, args.out, workers=args.workers, model=args.model,
                          keep_logs=args.keep_logs, progress=not args.json,

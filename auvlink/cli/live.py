@@ -5,18 +5,23 @@ Opens every port of the configuration, records the mission log (``DIR/mission.mc
 classification as the data comes, writing each object to ``DIR/detections.jsonl`` when it is final.
 A port that goes is reopened with backoff (the log marks the gap). Ctrl-C / SIGTERM (or the end of
 ``--duration``) flush everything: DIR gets ``cloud.ply``, ``summary.json`` and ``report.html``, the
-log its last chunk. See docs/LIVE.md for real hardware.
+log its last chunk. DIR must be new or empty unless ``--force`` (an existing ``--log`` likewise); the
+log is ``mission.mcap.partial`` until it is closed. A full disk stops the run with one line, exit 1,
+and DIR still gets every file that can be written. See docs/LIVE.md for real hardware.
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
 import signal
 import sys
 import threading
 from pathlib import Path
 from types import FrameType
 
+from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.cli.replay import scores_line
 from auvlink.errors import AuvlinkError
 
 
@@ -24,6 +29,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="vehicle configuration (TOML: [[devices]] name, format, url, ...)")
     p.add_argument("--out", type=Path, default=Path("live-out"), help="output folder (default live-out)")
     p.add_argument("--log", type=Path, default=None, help="mission log to write (default DIR/mission.mcap)")
+    p.add_argument("--force", action="store_true",
+                   help="write into a non-empty DIR (files of the same names are replaced) and over --log")
     p.add_argument("--duration", type=float, default=None, help="stop after S seconds (default: until Ctrl-C)")
     p.add_argument("--model", type=Path, default=None, help="classifier checkpoint (default: the shipped one)")
     p.add_argument("--no-classify", action="store_true", help="stop after clustering")
@@ -36,10 +43,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from auvlink.cli.replay import scores_line
+    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.pipeline.live import LiveRun
-    from auvlink.pipeline.process import Detection
     from auvlink.pipeline.report import write_report
+    from auvlink.pipeline.results import Detection
 
     if not args.config.is_file():
         raise AuvlinkError(f"{args.config}: no such configuration file")
@@ -47,6 +54,12 @@ def run(args: argparse.Namespace) -> int:
         raise AuvlinkError(f"--backoff-max must be > 0, got {args.backoff_max}")
     if args.sonar_queue < 1:
         raise AuvlinkError(f"--sonar-queue must be >= 1, got {args.sonar_queue}")
+    check_output_dir(args.out, force=args.force)
+    check_output_file(args.log or args.out / "mission.mcap", force=args.force, inputs=[args.config],
+                      option="--log", what="log")
+    objects = args.out / "objects"
+    if args.force and objects.is_dir() and not objects.is_symlink():
+        shutil.rmtree(objects)  # replaced whole, as replay does: no PLY of the last run beside the new ones
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -70,9 +83,12 @@ def run(args: argparse.Namespace) -> int:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-    summary = __import__("json").loads((args.out / "summary.json").read_text())
+    summary = live.summary
     if not args.no_report:
-        print(f"report: {write_report(result, summary, args.out)}")
+        try:
+            print(f"report: {write_report(result, summary, args.out)}")
+        except OSError as exc:  # a full disk: what could be written is written; say what is missing
+            live.fatal = "; ".join(filter(None, [live.fatal, f"report.html not written ({exc.strerror or exc})"]))
     lat = result.latency.get("frame_end_to_end")
     frames = result.recon_stats.get("frames_processed", 0)
     print(f"{len(result.detections)} objects -> {args.out / 'detections.jsonl'}; log {live.log_path}")
@@ -86,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
     if line:
         print(line)
     if live.fatal:
-        print(f"auvlink: error: {live.fatal}; stopped cleanly, {args.out} written, the log replays up to its "
+        written = "written where it could be" if "not written" in live.fatal else "written"
+        print(f"auvlink: error: {live.fatal}; stopped cleanly, {args.out} {written}, the log replays up to its "
               "last complete chunk", file=sys.stderr)
         return 1
     return 0

@@ -1,9 +1,13 @@
 """``auvlink log info|export|import``: inspect, export and import mission logs.
 
     auvlink log info LOG.mcap [--json]
-    auvlink log export LOG.mcap --out DIR [--sonar-every N] [--max-sonar N] [--channels a,b]
-    auvlink log import CAPTURE.bin --format FMT --out LOG.mcap [--rate HZ] [--device NAME]
-    auvlink log import CANLOG.asc|.blf --out LOG.mcap [--device NAME]
+    auvlink log export LOG.mcap --out DIR [--force] [--sonar-every N] [--max-sonar N] [--channels a,b]
+    auvlink log import CAPTURE.bin --format FMT --out LOG.mcap [--force] [--rate HZ] [--device NAME]
+    auvlink log import CANLOG.asc|.blf --out LOG.mcap [--force] [--device NAME]
+
+Outputs are checked before any work: an existing ``--out`` (a non-empty folder for ``export``) is
+replaced only with ``--force``, ``import X --out X`` is refused, and the output is written under a
+temporary name (a temporary folder for ``export``) renamed when whole.
 """
 
 from __future__ import annotations
@@ -13,7 +17,12 @@ import json
 import sys
 from pathlib import Path
 
+from auvlink.atomic import atomic_dir, check_output_dir, check_output_file
 from auvlink.jsonutil import to_jsonable
+from logs_format.export import export_log
+from logs_format.importers import import_can_log, import_serial_capture, is_can_log
+from logs_format.info import format_info, log_info
+from logs_format.profile import LogError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -26,6 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     exp = sub.add_parser("export", help="navigation as CSV, sonar frames as fan-shaped PNG images")
     exp.add_argument("log")
     exp.add_argument("--out", required=True, help="output folder")
+    exp.add_argument("--force", action="store_true", help="write into a non-empty folder (same names replaced)")
     exp.add_argument("--channels", default=None, help="comma-separated channel names (default: all)")
     exp.add_argument("--sonar-every", type=int, default=1, help="export every N-th sonar frame")
     exp.add_argument("--max-sonar", type=int, default=None, help="at most N sonar frames per channel")
@@ -33,6 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     imp = sub.add_parser("import", help="a python-can log or a raw serial capture -> a mission log")
     imp.add_argument("file")
     imp.add_argument("--out", required=True, help="mission log to write (.mcap)")
+    imp.add_argument("--force", action="store_true", help="replace an existing --out")
     imp.add_argument("--format", default=None, help="wire format of a raw capture (pd0, dsp1760, ...)")
     imp.add_argument("--device", default=None, help="channel name (default: the format, or 'can')")
     imp.add_argument("--rate", type=float, default=None, help="synthetic frame rate in Hz for a raw capture")
@@ -40,8 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from logs_format.info import format_info, log_info
-
     info = log_info(args.log, decode=not args.no_decode, gap_factor=args.gap_factor)
     if args.json:
         print(json.dumps(to_jsonable(info), indent=2, allow_nan=False))
@@ -51,11 +60,13 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from logs_format.export import export_log
-
+    if not Path(args.log).is_file():
+        raise LogError(f"no such log: {args.log}")
+    check_output_dir(args.out, force=args.force)
     channels = [c for c in args.channels.split(",") if c] if args.channels else None
-    result = export_log(args.log, args.out, channels=channels, sonar_every=args.sonar_every,
-                        max_sonar_frames=args.max_sonar, png=not args.no_png)
+    with atomic_dir(args.out) as tmp:
+        result = export_log(args.log, tmp, channels=channels, sonar_every=args.sonar_every,
+                            max_sonar_frames=args.max_sonar, png=not args.no_png)
     for name, rows in result.csv_rows.items():
         print(f"  {name}.csv: {rows} rows")
     for name, n in result.png_frames.items():
@@ -66,11 +77,9 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    from logs_format.importers import import_can_log, import_serial_capture, is_can_log
-    from logs_format.profile import LogError
-
     if not Path(args.file).is_file():
         raise LogError(f"no such file: {args.file}")
+    check_output_file(args.out, force=args.force, inputs=[args.file], what="log")
     if args.format is None:
         if not is_can_log(args.file):
             raise LogError(f"{args.file}: give --format FMT for a raw capture (or a python-can log file)")
@@ -79,8 +88,6 @@ def _import(args: argparse.Namespace) -> int:
     else:
         result = import_serial_capture(args.file, args.format, args.out, device=args.device,
                                        rate_hz=args.rate, compression=args.compression)
-    if not result.frames:
-        raise LogError(f"{args.file}: no whole frame found (is --format right?)")
     print(f"{result.out}: {result.frames} frames" + (f", {result.skipped} skipped" if result.skipped else ""))
     return 0
 

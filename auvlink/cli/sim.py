@@ -1,11 +1,13 @@
 """``auvlink sim``: simulate a mission into a log, or live on the virtual ports of a config file.
 
-    auvlink sim [--scene SCENE.toml] --out LOG.mcap [--seed N] [--duration S] [--no-noise] [--workers N]
+    auvlink sim [--scene SCENE.toml] --out LOG.mcap [--force] [--seed N] [--duration S] [--no-noise] [--workers N]
     auvlink sim [--scene SCENE.toml] --live CONFIG.toml [--speed X] [--duration S] [--seed N] [--no-noise]
 
 Without ``--scene`` the scene shipped in the package is used. ``--out`` runs as fast as the machine
 allows (a progress bar on stderr, a summary on stdout); ``--live`` serves the devices of the
 config at ``--speed`` x real time until the survey ends, ``--duration`` passes or Ctrl-C / SIGTERM.
+An existing ``--out`` is replaced only with ``--force``; the log is written as ``LOG.mcap.partial`` and
+renamed when complete (a failed or interrupted run leaves ``LOG.mcap`` as it was).
 """
 
 from __future__ import annotations
@@ -15,10 +17,10 @@ import signal
 import sys
 import threading
 from types import FrameType
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from auvlink.sim.scene import Scene
+from auvlink.atomic import check_output_file
+from auvlink.config import load_config
+from auvlink.sim.scene import Scene, load_default_scene, load_scene
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -26,6 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     mode = parser.add_mutually_exclusive_group(required=True)
     mode.add_argument("--out", help="write the simulated mission to this log (.mcap), as fast as possible")
     mode.add_argument("--live", metavar="CONFIG", help="serve the devices of this vehicle config in real time")
+    parser.add_argument("--force", action="store_true", help="--out: replace an existing log")
     parser.add_argument("--seed", type=int, default=None, help="seed of every random draw (default: the scene's)")
     parser.add_argument("--duration", type=float, default=None, help="seconds of mission (default: the survey)")
     parser.add_argument("--no-noise", action="store_true", help="noise-free sensors (truth + wire quantization)")
@@ -36,14 +39,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _scene(path: str | None) -> Scene:
-    from auvlink.sim.scene import load_default_scene, load_scene
-
     return load_default_scene() if path is None else load_scene(path)
 
 
 def _to_log(args: argparse.Namespace) -> int:
-    from auvlink.sim.mission import simulate_to_log
+    from auvlink.sim.mission import simulate_to_log  # lazy: Open3D and trimesh (the parser imports every subcommand)
 
+    check_output_file(args.out, force=args.force, inputs=[args.scene], what="log")
     result = simulate_to_log(_scene(args.scene), args.out, seed=args.seed, progress=not args.quiet,
                              duration=args.duration, noise=False if args.no_noise else None,
                              workers=args.workers)
@@ -57,8 +59,7 @@ def _to_log(args: argparse.Namespace) -> int:
 
 
 def _live(args: argparse.Namespace) -> int:
-    from auvlink.config import load_config
-    from auvlink.sim.live import serve
+    from auvlink.sim.live import serve  # lazy: Open3D and trimesh (the parser imports every subcommand)
 
     config = load_config(args.live)
     stop = threading.Event()

@@ -3,7 +3,8 @@
 Synthesizes training clouds from the object catalog (cached under ``--cache``), trains PointNet
 with the settings of ``--config`` (default: the shipped ``classify/data/train_default.toml``),
 evaluates on held-out synthesized clouds and writes the checkpoint (class names, synthesis
-settings, model and training configuration, metrics).
+settings, model and training configuration, metrics). An existing ``--out`` is replaced only with
+``--force`` (checked before any work); the checkpoint is written under a temporary name and renamed.
 """
 
 from __future__ import annotations
@@ -11,9 +12,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from auvlink.atomic import check_output_file
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("pointnet.pt"), help="checkpoint to write (default pointnet.pt)")
+    p.add_argument("--force", action="store_true", help="replace an existing --out")
     p.add_argument("--config", type=Path, default=None,
                    help="training settings TOML (default: classify/data/train_default.toml)")
     p.add_argument("--epochs", type=int, default=None, help="override the number of epochs")
@@ -29,6 +33,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
+    # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)
+    from auvlink.evaluation.recon_eval import recon_metrics
     from classify.config import load_train_settings, with_overrides
     from classify.dataset import default_cache_dir
     from classify.workflow import train_and_save
@@ -36,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
                               args.threads)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
-    out = train_and_save(settings, args.out, cache, progress=not args.quiet, recon_eval=args.recon_eval)
+    extra = {"recon": recon_metrics(cache, progress=not args.quiet)} if args.recon_eval else None
+    out = train_and_save(settings, args.out, cache, progress=not args.quiet, extra_evals=extra)
     m = out.metrics
     print(f"trained {m['epochs_run']} epochs in {m['train_seconds']:.1f} s (synthesis {m['synthesis_seconds']:.1f} s), "
           f"best epoch {m['best_epoch']}, validation accuracy {m['val_accuracy']:.3f}")

@@ -3,8 +3,9 @@
 Each survey of the draw (:mod:`auvlink.evaluation.draw`) is written as a scene file
 ``DIR/surveys/NNN/scene.toml``, simulated into ``DIR/surveys/NNN/mission.mcap`` by
 :func:`auvlink.sim.mission.simulate_to_log` (what ``auvlink sim --out`` runs, noise on), replayed by
-:func:`auvlink.cli.replay.process` (what ``auvlink replay`` runs: framers, codecs, the streaming
-engine, classification; the detections go to ``DIR/surveys/NNN/detections.jsonl``) and scored against
+:func:`auvlink.pipeline.process.run_log` and written by :func:`auvlink.pipeline.outputs.write_outputs`
+(what ``auvlink replay`` runs: framers, codecs, the streaming engine, classification; the outputs go
+to ``DIR/surveys/NNN/out/``, the detections to ``out/detections.jsonl``) and scored against
 the scene's objects (:mod:`auvlink.evaluation.score`). The log is deleted after its replay unless
 ``keep_logs`` (a 3-minute survey is ~150 MB); nothing is cached: every run simulates afresh.
 
@@ -39,7 +40,9 @@ class SurveyJob:
 
 def run_survey(job: SurveyJob) -> dict[str, Any]:
     """Simulate, replay and score one survey (see the module docstring); returns its record."""
-    from auvlink.cli.replay import process
+    from auvlink.atomic import atomic_dir
+    from auvlink.pipeline.outputs import write_outputs
+    from auvlink.pipeline.process import run_log
     from auvlink.sim.mission import simulate_to_log
     from auvlink.sim.scene import load_scene
 
@@ -51,18 +54,22 @@ def run_survey(job: SurveyJob) -> dict[str, Any]:
     t0 = time.perf_counter()
     sim = simulate_to_log(load_scene(scene_path), log, progress=False, workers=1)
     t1 = time.perf_counter()
-    summary = process(log, folder, speed=None, model=job.model, classify=True, report=False, progress=False)
+    result = run_log(log, model=job.model, classify=True, progress=False)  # what `auvlink replay` runs
+    out = folder / "out"
+    with atomic_dir(out) as tmp:
+        summary = write_outputs(result, tmp)
     t2 = time.perf_counter()
     if not job.keep_log:
         log.unlink()
-    lines = (folder / "detections.jsonl").read_text().splitlines()
+    lines = (out / "detections.jsonl").read_text().splitlines()
     dets = [json.loads(x) for x in lines if x.strip()]
     truth = [(c, n, e) for c, n, e, _ in d.objects]
     rec = summary.get("recon") if isinstance(summary.get("recon"), dict) else {}
     return {"index": d.index, "folder": str(folder), "draw": d.to_dict(), "factors": d.factors(),
             "mission_s": sim.duration_s, "sonar_frames": sim.frames.get("sonar", 0),
             "sim_wall_s": t1 - t0, "replay_wall_s": t2 - t1, "recon": rec,
-            "detections": [{k: x.get(k) for k in ("id", "class", "score", "position_ned", "size", "n_points")}
+            "detections": [{k: x.get(k) for k in ("id", "class", "score", "position_ned", "size", "n_points",
+                                                  "passes")}
                            for x in dets],
             "score": score_survey(dets, truth)}
 

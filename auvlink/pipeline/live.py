@@ -13,7 +13,8 @@ Events (port lost / reopened, frames dropped, the log failing) go to the log's `
 (JSON, schema ``auvlink.Event``) and to the summary. ``stop`` (SIGINT / SIGTERM in the CLI) or the
 end of ``duration`` flushes everything: the engine finishes the open objects, DIR gets its files,
 the log its last chunk and summary. A log that cannot be written stops the run the same way, with
-the message in ``LiveRun.fatal``; what was written before stays readable.
+the message in ``LiveRun.fatal``; what was written before stays readable, and DIR still gets every
+file that can be written (``summary["unwritten"]`` lists the others).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -29,13 +31,14 @@ from auvlink.config import VehicleConfig, load_config
 from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
+from auvlink.pipeline.nav_inputs import SONAR_FORMATS
 from auvlink.pipeline.outputs import DetectionStream, write_outputs
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
-from auvlink.pipeline.process import LIVE_META, MissionResult, result_of
+from auvlink.pipeline.process import LIVE_META, result_of
+from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.records import Sample
-
-SONAR_FORMATS = ("didson", "aris")
+from logs_format.writer import MissionLogWriter
 
 
 class LiveRun:
@@ -44,8 +47,9 @@ class LiveRun:
     def __init__(self, config: VehicleConfig | str | Path, out_dir: Path, *, log_path: Path | None = None,
                  duration: float | None = None, stop: threading.Event | None = None, classify: bool = True,
                  model: Path | None = None, sonar_queue: int = 10, engine_config: EngineConfig | None = None,
-                 compression: str = "zstd", on_detection: Any = None, ready: threading.Event | None = None,
-                 backoff_max: float = 5.0, on_ready: Any = None) -> None:
+                 compression: str = "zstd", on_detection: Callable[[Detection], None] | None = None,
+                 ready: threading.Event | None = None,
+                 backoff_max: float = 5.0, on_ready: Callable[[], None] | None = None) -> None:
         self.config = config if isinstance(config, VehicleConfig) else load_config(config)
         self.out_dir = Path(out_dir)
         self.log_path = Path(log_path) if log_path is not None else self.out_dir / "mission.mcap"
@@ -62,6 +66,7 @@ class LiveRun:
         self._delivered: dict[str, int] = {}  # samples handed over per device (each device: one reader thread)
         self.events: list[dict[str, Any]] = []
         self.fatal = ""
+        self.summary: dict[str, Any] = {}  # summary.json's content, once run() returns
         self._log: Any = None
         self._user_on_detection = on_detection
         self._lock = threading.Lock()
@@ -105,8 +110,6 @@ class LiveRun:
 
     # ------------------------------------------------------------------ the run
     def run(self) -> MissionResult:
-        from logs_format.writer import MissionLogWriter
-
         t_start = time.perf_counter()
         try:
             self.out_dir.mkdir(parents=True, exist_ok=True)
@@ -115,7 +118,7 @@ class LiveRun:
         setup = MissionSetup.from_config(self.config)
         stream = DetectionStream(self.out_dir)
 
-        def on_detection(det: Any) -> None:
+        def on_detection(det: Detection) -> None:
             stream(det)
             if self._user_on_detection is not None:
                 self._user_on_detection(det)
@@ -165,7 +168,12 @@ class LiveRun:
                    "total_s": time.perf_counter() - t_start}
         result = result_of(engine, self.log_path, timings, devices, self.fatal, mode="live", drops=self.drops,
                            events=self.events)
-        write_outputs(result, self.out_dir)
+        self.summary = write_outputs(result, self.out_dir, keep_going=True)
+        unwritten = self.summary.get("unwritten")
+        if unwritten or stream.error is not None:
+            what = ", ".join(unwritten) if unwritten else f"detections as they came ({stream.error})"
+            with self._lock:
+                self.fatal = "; ".join(filter(None, [self.fatal, f"not written in {self.out_dir}: {what}"]))
         return result
 
     def _drain(self, engine: Engine) -> int:
