@@ -19,7 +19,6 @@ from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster, make_object
@@ -28,6 +27,7 @@ from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude
 from recon.front_slope import arc_columns, carve_keep, replace_on_arcs
 from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project, returns_between
+from recon.poll_seabed import object_points, on_seabed
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_texture import SeabedCells, TextureConfig, TexturedSeabed, fit_textured
 from recon.sonar_geometry import SonarGeometry
@@ -289,11 +289,7 @@ class Reconstructor:
         m = max(self.config.texture.context_m, self.config.texture.window_m + self.config.texture.cell)
         return fit_textured(self._cells, coarse, lo - m, hi + m, self.config.texture)
 
-    def _min_height(self, model: TexturedSeabed | SeabedModel) -> float:
-        floor = self.config.seabed.min_height
-        return model.min_height(floor) if isinstance(model, TexturedSeabed) else floor
-
-    def _filtered_pending(self, extra_box: tuple[F64, F64] | None = None) -> tuple[F64, F64, F64]:
+    def _filtered_pending(self) -> tuple[F64, F64, F64]:
         if not self._pending:
             p, t, e = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 10 if self._arc else 0))
         else:
@@ -303,66 +299,25 @@ class Reconstructor:
         self._pending = []
         if not self.config.remove_seabed or not self._seabed:
             return p, t, e
-        boxes = [b for b in ([(p[:, :2].min(axis=0), p[:, :2].max(axis=0))] if p.shape[0] else []) + [extra_box]
-                 if b is not None]
-        if not boxes:
+        if p.shape[0] == 0:
             return p, t, e
-        lo = np.min([b[0] for b in boxes], axis=0)
-        hi = np.max([b[1] for b in boxes], axis=0)
-        model = self._fit_seabed(lo, hi)
+        model = self._fit_seabed(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
         if model is None:
             return p, t, e
         self.seabed = model
-        if p.shape[0] == 0:
-            return p, t, e
-        h = model.height_above(p)
-        keep = (h >= self._min_height(model)) & (h <= self.config.seabed.max_height)
-        if isinstance(model, TexturedSeabed):
-            thr = self._min_height(model)
-            keep |= self._flanks(p, keep & (h >= max(2.0 * self.config.min_object_height, 3.0 * thr)), model,
-                                 self.config.seabed.min_height)
+        keep = object_points(p, model, self.config.seabed, self.config.min_object_height, self.config.flank_radius)
         self.seabed_removed += int((~keep).sum())
         return p[keep], t[keep], e[keep]
 
-    def _flanks(self, p: F64, anchor: NDArray[np.bool_], model: TexturedSeabed, thr: float) -> NDArray[np.bool_]:
-        """The lower parts of objects: points the texture grid would remove that stand ``thr`` m above the tiled
-        planes within ``flank_radius`` m (horizontally) of an anchor, a point well above the grid (twice
-        ``min_object_height`` and three thresholds). A crest of the texture has no such point near it; a large
-        object the grid partly followed has, and its flanks stay (the classifier needs the whole cloud)."""
-        out = np.zeros(p.shape[0], bool)
-        hc = model.coarse.height_above(p)
-        cand = ~anchor & (hc >= thr) & (hc <= self.config.seabed.max_height)
-        if anchor.any() and cand.any():
-            d, _ = cKDTree(p[anchor, :2]).query(p[cand, :2], distance_upper_bound=self.config.flank_radius)
-            out[np.flatnonzero(cand)[np.isfinite(d)]] = True
-        return out
-
     def _objects_on_seabed(self, objects: list[DetectedObject]) -> list[DetectedObject]:
-        """Each object with the depth of the seabed under it (the poll's model), and the clutter tests:
-        wider than any object, or its top (95th percentile) lower than ``min_object_height`` above the
-        tiled planes, is not an object (counted in :attr:`rejected`)."""
-        model, out = self.seabed, []
+        """Each object with the seabed depth under it, clutter rejected (:func:`recon.poll_seabed.on_seabed`)."""
+        model = self.seabed
         if objects and isinstance(model, TexturedSeabed):
             lo = np.min([o.points[:, :2].min(axis=0) for o in objects], axis=0)
             hi = np.max([o.points[:, :2].max(axis=0) for o in objects], axis=0)
             if not model.covers(lo, hi):  # objects finalized away from this poll's new points
                 model = self._fit_seabed(lo, hi) or model
-        for o in objects:
-            wide = float(np.max(o.points[:, :2].max(axis=0) - o.points[:, :2].min(axis=0)))
-            if wide > self.config.max_object_extent:
-                self.rejected["too_wide"] += 1
-                continue
-            if model is not None:
-                # the planes, not the texture grid: the grid may pass over part of a large object
-                planes = model.coarse if isinstance(model, TexturedSeabed) else model
-                ground = planes.depth_at(o.points[:, :2])
-                top = float(np.percentile(ground - o.points[:, 2], 95))
-                if top < self.config.min_object_height:
-                    self.rejected["too_low"] += 1
-                    continue
-                o = replace(o, seabed_depth=float(np.median(ground)))
-            out.append(o)
-        return out
+        return on_seabed(objects, model, self.config.max_object_extent, self.config.min_object_height, self.rejected)
 
     def _finalize(self, objects: list[DetectedObject]) -> list[DetectedObject]:
         """Front-slope correction (arc method) of final objects: points, extent, centroid (+ hidden far side)."""
