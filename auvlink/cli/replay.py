@@ -2,9 +2,10 @@
 
 The raw frames go back through the same framers, codecs and drivers as live operation; then
 navigation, reconstruction, clustering and classification. DIR receives ``detections.jsonl``,
-``cloud.ply``, ``objects/*.ply``, ``summary.json`` and ``report.html``. DIR is checked before any work
-(new or empty unless ``--force``, writable) and filled in a temporary folder renamed when whole
-(:func:`auvlink.atomic.atomic_dir`).
+``cloud.ply``, ``objects/*.ply`` (per point object id and time; ``--ply-frame zup`` for viewers that
+want z up), ``results.mcap`` (Foxglove schemas: docs/VIEWER.md), ``summary.json`` and ``report.html``.
+DIR is checked before any work (new or empty unless ``--force``, writable) and filled in a temporary
+folder renamed when whole (:func:`auvlink.atomic.atomic_dir`).
 """
 
 from __future__ import annotations
@@ -30,10 +31,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--config", type=Path, default=None,
                    help="vehicle configuration (TOML) to use instead of the one the log stores")
+    p.add_argument("--ply-frame", choices=("ned", "zup"), default="ned",
+                   help="frame of the PLY files: ned (world frame, default) or zup (x east, y north, z up)")
 
 
 def process(log: Path, out: Path, *, speed: float | None, model: Path | None, classify: bool,
-            report: bool, progress: bool, config: Path | None = None) -> dict[str, object]:
+            report: bool, progress: bool, config: Path | None = None, ply_frame: str = "ned") -> dict[str, object]:
     # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
@@ -43,7 +46,7 @@ def process(log: Path, out: Path, *, speed: float | None, model: Path | None, cl
     vehicle = load_config(config) if config is not None else None
     result = run_log(log, speed=speed, model=model, classify=classify, progress=progress, config=vehicle)
     with atomic_dir(out) as tmp:
-        summary = write_outputs(result, tmp)
+        summary = write_outputs(result, tmp, ply_frame=ply_frame)
         if report:
             write_report(result, summary, tmp)
     if report:
@@ -86,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
     check_inputs(args.log, args.speed)
     check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
     summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
-                      report=not args.no_report, progress=not args.quiet, config=args.config)
+                      report=not args.no_report, progress=not args.quiet, config=args.config,
+                      ply_frame=args.ply_frame)
     print(f"{summary['detections']} objects -> {args.out / 'detections.jsonl'}")
     line = engine_line(summary)
     if line and not args.quiet:

@@ -32,7 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from auvlink.pipeline.latency import StageTimes
-from auvlink.pipeline.results import Detection, StripFrame
+from auvlink.pipeline.results import Detection, Poses, StripFrame
 from auvlink.pipeline.route import DvlPayload, Event, Router, SonarPayload
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from auvlink.records import Sample
@@ -45,6 +45,11 @@ from recon.sonar_geometry import SonarGeometry
 
 if TYPE_CHECKING:
     from classify.infer import Classifier
+
+#: ``on_frames(geometry, times, images, returns)``: frames just reconstructed (mission times s, (F, bins,
+#: beams) uint8) and their highlight returns ((frame, beam, row) arrays, :attr:`Reconstructor.last_returns`)
+FramesObserver = Callable[[SonarGeometry, npt.NDArray[np.float64], npt.NDArray[np.uint8],
+                           tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]], None]
 
 
 def default_recon_config() -> ReconConfig:
@@ -89,7 +94,8 @@ class Engine:
     def __init__(self, setup: MissionSetup, config: EngineConfig | None = None, *, t0_ns: int | None = None,
                  recon_config: ReconConfig | None = None, classify: bool = True, model: Path | None = None,
                  on_detection: Callable[[Detection], None] | None = None,
-                 clock: Callable[[], int] | None = None, strip_frames: int = 6, ring_frames: int = 200) -> None:
+                 clock: Callable[[], int] | None = None, strip_frames: int = 6, ring_frames: int = 200,
+                 on_frames: FramesObserver | None = None) -> None:
         self.setup = setup
         self.config = config or EngineConfig()
         self.t0_ns = t0_ns
@@ -105,6 +111,7 @@ class Engine:
         self._classify, self._model = classify, model
         self._classifier: Classifier | None = None
         self._on_detection, self._clock = on_detection, clock
+        self._on_frames = on_frames
         self._buf: list[Event] = []
         self._frames: list[tuple[int, SonarPayload]] = []
         self._ring: deque[tuple[float, npt.NDArray[np.uint8]]] = deque(maxlen=ring_frames)
@@ -212,7 +219,10 @@ class Engine:
             return 0
         sel, ts = sel[good], times[sel[good]]
         self.rec.add_seabed_points(self.nav.take_seabed_points(until=float(ts.max())))
-        self.rec.add_frames(ts, np.stack([imgs[k] for k in good]))
+        stack = np.stack([imgs[k] for k in good])
+        self.rec.add_frames(ts, stack)
+        if self._on_frames is not None:
+            self._on_frames(g, ts, stack, self.rec.last_returns)
         dt = time.perf_counter() - t_start
         self.times.add("reconstruction", dt / sel.size, sel.size)
         self.counts["frames_processed"] += int(sel.size)
@@ -251,7 +261,8 @@ class Engine:
                             position_ned=(float(o.centroid[0]), float(o.centroid[1]), float(o.centroid[2])),
                             size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
                             n_points=int(o.n_points), t_first=epoch + float(o.t_first),
-                            t_last=epoch + float(o.t_last), points=o.points)
+                            t_last=epoch + float(o.t_last), points=o.points,
+                            times=epoch + np.asarray(o.times, dtype=np.float64))
             self.detections.append(det)
             self._pick_strip(float(o.t_first))
             if self._on_detection is not None:
@@ -290,6 +301,17 @@ class Engine:
 
     def track(self, step: int = 5) -> np.ndarray:
         return self.nav.positions(step)[1]
+
+    def poses(self, rate_hz: float = 10.0) -> Poses:
+        """The navigation solution at most ``rate_hz`` (the grid times the navigator answers for)."""
+        t, _ = self.nav.positions(1)
+        if t.size:
+            t = t[np.r_[True, np.diff(np.floor(t * rate_hz)) > 0]]
+            t = t[self.nav.covered(t)]
+        if not t.size:
+            return Poses.empty()
+        pos, rot = self.nav.pose_at(t)
+        return Poses(t, pos, rot.as_quat())
 
     def highlight_points(self) -> np.ndarray:
         return self.rec.raw_points if self.rec is not None else np.zeros((0, 3))
