@@ -166,6 +166,29 @@ def test_results_mcap_decodes_every_channel_with_its_schemas(replayed: tuple[Pat
     assert (out / "results.mcap").stat().st_size < 4_000_000
 
 
+def test_the_shipped_layout_names_only_topics_the_file_has() -> None:
+    layout = json.loads((Path(__file__).resolve().parents[1] / "docs" / "foxglove_layout.json").read_text())
+    used: set[str] = set()
+
+    def walk(v: Any) -> None:
+        if isinstance(v, dict):
+            for k, x in v.items():
+                if k.startswith("/"):
+                    used.add(k)
+                walk(x)
+        elif isinstance(v, list):
+            for x in v:
+                walk(x)
+        elif isinstance(v, str) and v.startswith("/") and "Topic" not in v:
+            used.add(v.split(".")[0])
+
+    for panel in layout["configById"].values():
+        walk({k: v for k, v in panel.items() if k != "publish"})
+    assert used and used <= set(TOPICS), used - set(TOPICS)
+    panels = [k.split("!")[0] for k in layout["configById"]]
+    assert {"3D", "Image", "map", "Plot"} <= set(panels)
+
+
 def test_ply_files_carry_object_id_and_time(replayed: tuple[Path, Path]) -> None:
     _, out = replayed
     dets = [json.loads(line) for line in (out / "detections.jsonl").read_text().splitlines()]

@@ -2,9 +2,10 @@
 its highlight returns marked, kept for ``results.mcap`` (:mod:`auvlink.pipeline.results_mcap`).
 
 The picture is the fan of :mod:`logs_format.fan` (x starboard, y forward in the sonar's plane, far
-range at the top, square pixels) at most ``height_px`` pixels high, grey levels through the inferno
-colour map, black outside the fan; each highlight-extension return (the first return above the
-expected seabed of a beam, :attr:`recon.pipeline.Reconstructor.last_returns`) is a cyan cross.
+range at the top, square pixels) at most ``height_px`` pixels high, a palette PNG: grey levels
+0..254 through the inferno colour map (255 shown as 254), the inferno black outside the fan; each
+highlight-extension return (the first return above the expected seabed of a beam,
+:attr:`recon.pipeline.Reconstructor.last_returns`) is a cyan cross (palette index 255).
 Memory stays bounded: past ``max_frames`` every other kept frame is dropped and the interval doubles.
 A recorder is an engine ``on_frames`` observer (:class:`auvlink.pipeline.engine.Engine`).
 """
@@ -22,14 +23,16 @@ from auvlink.pipeline.results import FanFrame
 from logs_format.fan import FanGrid, fan_grid, render_fan
 from recon.sonar_geometry import SonarGeometry
 
-MARK = np.array([0, 255, 255], np.uint8)  # cyan
+MARK = (0, 255, 255)  # cyan, palette index 255
 _CROSS = ((0, 0), (-1, 0), (1, 0), (0, -1), (0, 1))
 
 
 def _lut() -> NDArray[np.uint8]:
-    from matplotlib import colormaps  # lazy: the colour map only, once per recorder
+    """The palette: inferno for 0..254, :data:`MARK` at 255 (256 x 3 uint8)."""
+    from matplotlib import colormaps  # lazy: matplotlib loads when a recorder is made, not with the pipeline
 
-    return (np.asarray(colormaps["inferno"](np.arange(256)))[:, :3] * 255).round().astype(np.uint8)
+    lut = (np.asarray(colormaps["inferno"](np.linspace(0.0, 1.0, 255)))[:, :3] * 255).round().astype(np.uint8)
+    return np.vstack([lut, np.array([MARK], np.uint8)])
 
 
 def fan_px_per_m(geometry: SonarGeometry, height_px: int) -> float:
@@ -52,18 +55,21 @@ def returns_pixels(grid: FanGrid, ranges: NDArray[np.float64], azimuths: NDArray
 
 def render_png(image: NDArray[np.uint8], grid: FanGrid, lut: NDArray[np.uint8],
                marks: tuple[NDArray[np.int64], NDArray[np.int64]] | None = None) -> bytes:
-    """The fan picture of ``image`` as an RGB PNG, ``marks`` (picture rows, columns) as crosses."""
+    """The fan picture of ``image`` as a palette PNG (``lut``: :func:`_lut`), ``marks`` (picture rows,
+    columns) as crosses."""
     fan = render_fan(image, grid)
-    rgb = lut[np.asarray(fan.filled(0), dtype=np.uint8)]
-    rgb[~grid.inside] = 0
+    idx = np.minimum(np.asarray(fan.filled(0), dtype=np.uint8), 254)
+    idx[~grid.inside] = 0
     if marks is not None and marks[0].size:
         h, w = grid.rows.shape
         for dr, dc in _CROSS:
             rr, cc = marks[0] + dr, marks[1] + dc
             ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-            rgb[rr[ok], cc[ok]] = MARK
+            idx[rr[ok], cc[ok]] = 255
+    pic = Image.frombytes("P", (idx.shape[1], idx.shape[0]), np.ascontiguousarray(idx).tobytes())
+    pic.putpalette(lut.reshape(-1).tolist())
     buf = io.BytesIO()
-    Image.fromarray(rgb, "RGB").save(buf, format="PNG", optimize=False, compress_level=6)
+    pic.save(buf, format="PNG", compress_level=6)
     return buf.getvalue()
 
 
@@ -79,7 +85,7 @@ class FanRecorder:
         self.frames: list[FanFrame] = []
         self._next = -math.inf
         self._grid: tuple[bytes, FanGrid] | None = None
-        self._lut: NDArray[np.uint8] | None = None
+        self._lut = _lut()  # now: live makes its recorder before the ports open (no stall on the first frame)
 
     def _grid_for(self, g: SonarGeometry) -> FanGrid:
         key = g.ranges.tobytes() + g.azimuths.tobytes()
@@ -94,8 +100,6 @@ class FanRecorder:
             if t < self._next:
                 continue
             self._next = float(t) + self.every_s
-            if self._lut is None:
-                self._lut = _lut()
             grid = self._grid_for(geometry)
             sel = fi == k
             marks = returns_pixels(grid, geometry.ranges, geometry.azimuths, bi[sel], ri[sel])
