@@ -22,7 +22,7 @@ from PIL import Image
 from auvlink.cli import main
 from auvlink.pipeline.outputs import write_points_ply
 from auvlink.pipeline.results import Detection
-from auvlink.pipeline.results_mcap import NO_DATUM, local_to_geodetic
+from auvlink.pipeline.results_mcap import NO_DATUM, cloud_steps, local_to_geodetic
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import loads_scene
 from logs_format import MissionLogReader
@@ -133,7 +133,9 @@ def test_results_mcap_decodes_every_channel_with_its_schemas(replayed: tuple[Pat
     # detections: one cube + label per object, oriented like the object (the pipe lies at 60 deg)
     dets = [json.loads(line) for line in (out / "detections.jsonl").read_text().splitlines()]
     assert len(dets) == 2
-    ents = {e.id: e for _, upd in msgs["/objects/detections"] for e in upd.entities}
+    updates = [upd for _, upd in msgs["/objects/detections"]]
+    assert [len(u.entities) for u in updates] == [1, 2]  # each update: every object so far (seeking works)
+    ents = {e.id: e for e in updates[-1].entities}
     assert set(ents) == {f"object_{d['id']}" for d in dets}
     pipe = next(d for d in dets if d["class"] == "pipe")
     assert abs(pipe["yaw_deg"] - 60.0) < 8.0 and pipe["length_m"] > 2 * pipe["width_m"]
@@ -221,6 +223,16 @@ def test_zup_ply_is_east_north_up(tmp_path: Path) -> None:
     assert np.column_stack([rec["x"], rec["y"], rec["z"]]).tolist() == [[2.0, 10.0, -20.0], [2.5, 11.0, -19.5]]
     assert rec["object_id"].tolist() == [3, 3] and rec["time"].tolist() == [100.0, 101.0]
     assert main(["replay", str(tmp_path / "none.mcap"), "--out", str(tmp_path / "o"), "--ply-frame", "zup"]) == 1
+
+
+def test_cloud_steps_keep_the_cumulative_clouds_within_the_budget() -> None:
+    assert cloud_steps([]) == [] and cloud_steps([10, 10, 10]) == [0, 1, 2]
+    sizes = [1000] * 100  # 100 objects of 1000 points: all cumulative clouds would be 101 MB
+    idx = cloud_steps(sizes, budget=16 << 20)
+    assert idx[-1] == 99 and len(idx) > 10
+    assert sum((i + 1) * 1000 * 20 for i in idx) <= 16 << 20
+    step = idx[1] - idx[0]
+    assert sum((i + 1) * 20_000 for i in sorted({*range(step - 2, 100, step - 1), 99})) > 16 << 20  # the smallest
 
 
 def test_oriented_box_golden() -> None:

@@ -17,12 +17,17 @@ topic                       schema                 what
 ``/objects/cloud``          foxglove.PointCloud    every object's points so far (``world``):
                                                    x, y, z (float32, m), ``object_id`` (uint32),
                                                    ``time`` (float32, s since mission start)
-``/objects/detections``     foxglove.SceneUpdate   per object a cube (oriented box: centre, yaw of
-                                                   the principal axis, length, width, height) and a
-                                                   text label "#id class score"
+``/objects/detections``     foxglove.SceneUpdate   every object so far: a cube (oriented box: centre,
+                                                   yaw of the principal axis, length, width, height)
+                                                   and a text label "#id class score"
 ``/sonar/fan``              foxglove.CompressedImage  the sonar frame as a fan (PNG), highlight
                                                    returns as cyan crosses, 1 frame/s
 ==========================  =====================  ==============================================
+
+Each ``/objects/*`` message holds every object made so far (a viewer that seeks shows the latest
+message of a topic, so none depends on earlier ones). The clouds are published at each new object
+while their sum stays under ``CLOUD_BUDGET`` bytes, else at every k-th object (the smallest k that
+fits) and always at the last one.
 
 ``/nav/location``: with the geo-referenced track (``MissionResult.track_info`` ``lat``/``lon``, from
 GNSS) those positions, ``frame_id`` ``wgs84``; else, with a ``[site]`` datum, the dead-reckoned
@@ -65,6 +70,8 @@ NO_DATUM = "no_datum_offsets_from_0N_0E"
 NO_DATUM_NOTICE = ("no datum: latitude/longitude are the dead-reckoned track's offsets from 0 N 0 E "
                    "(shape right, place not); give the vehicle configuration a [site] or a GNSS receiver")
 _A, _E2 = 6378137.0, 6.69437999014e-3  # WGS84
+CLOUD_BUDGET = 16 << 20  # bytes of /objects/cloud in all
+_POINT_BYTES = 20
 
 
 def stamp(t_ns: int) -> Timestamp:
@@ -149,6 +156,19 @@ def object_cloud(result: MissionResult, upto: int) -> PointCloud:
                       point_stride=rec.dtype.itemsize, fields=fields, data=rec.tobytes())
 
 
+def cloud_steps(sizes: list[int], budget: int = CLOUD_BUDGET) -> list[int]:
+    """Indices of the objects after which the cumulative cloud is published (see the module docstring)."""
+    n = len(sizes)
+    if not n:
+        return []
+    cum = np.cumsum(np.asarray(sizes, dtype=np.int64)) * _POINT_BYTES
+    for step in range(1, n + 1):
+        idx = sorted({*range(step - 1, n, step), n - 1})
+        if int(cum[idx].sum()) <= budget or step == n:
+            return idx
+    return [n - 1]  # pragma: no cover
+
+
 def messages(result: MissionResult) -> Iterator[tuple[int, str, Any]]:
     """``(log_time_ns, topic, message)`` of every message of ``results.mcap`` (not sorted)."""
     poses, t0 = result.poses, result.t0_ns
@@ -178,10 +198,14 @@ def messages(result: MissionResult) -> Iterator[tuple[int, str, Any]]:
             timestamp=stamp(t_ns), frame_id=frame, latitude=float(lat[i]), longitude=float(lon[i]),
             altitude=-float(depth[i]) if math.isfinite(depth[i]) else 0.0,
             position_covariance_type=LocationFix.UNKNOWN, metadata=meta)
+    entities = []
+    clouds = set(cloud_steps([len(d.points) for d in result.detections]))
     for k, det in enumerate(result.detections):
         t_ns = round(det.t_last * 1e9)
-        yield t_ns, "/objects/cloud", object_cloud(result, k + 1)
-        yield t_ns, "/objects/detections", SceneUpdate(entities=[detection_entity(det, t_ns, WORLD)])
+        entities.append(detection_entity(det, t_ns, WORLD))
+        if k in clouds:
+            yield t_ns, "/objects/cloud", object_cloud(result, k + 1)
+        yield t_ns, "/objects/detections", SceneUpdate(entities=entities)
     for fr in result.fan_frames:
         t_ns = t0 + round(fr.t * 1e9)
         yield t_ns, "/sonar/fan", CompressedImage(timestamp=stamp(t_ns), frame_id=FAN, data=fr.png, format="png")

@@ -4,7 +4,8 @@ The cube's pose is the centre of the object's oriented box (:mod:`recon.shape`) 
 W (NED, m) turned by the yaw of its principal horizontal axis about W's z (down), its size
 (length, width, height) the spans along, across and down; colour by class, half transparent. The
 label "#id class score" floats 0.5 m above the box (billboard, fixed pixel size). The entity id is
-``object_<id>`` and has no lifetime: the viewer keeps it from the moment the object was made.
+``object_<id>`` and has no lifetime: the viewer keeps it from the moment the object was made. Its
+metadata: class, score, points, yaw, length, width, and lat/lon where the run is geo-referenced.
 """
 
 from __future__ import annotations
@@ -54,5 +55,8 @@ def detection_entity(det: Detection, t_ns: int, frame_id: str) -> SceneEntity:
     meta = [KeyValuePair(key=k, value=v) for k, v in (
         ("class", det.class_name), ("score", f"{det.score:.4f}"), ("n_points", str(det.n_points)),
         ("yaw_deg", f"{box.yaw_deg:.2f}"), ("length_m", f"{box.length_m:.3f}"), ("width_m", f"{box.width_m:.3f}"))]
+    lat, lon = getattr(det, "latitude", None), getattr(det, "longitude", None)  # when geo-referenced
+    if lat is not None and lon is not None:
+        meta += [KeyValuePair(key="lat", value=f"{lat:.9f}"), KeyValuePair(key="lon", value=f"{lon:.9f}")]
     return SceneEntity(timestamp=ts, frame_id=frame_id, id=f"object_{det.id}", frame_locked=False,
                        metadata=meta, cubes=[cube], texts=[label])
