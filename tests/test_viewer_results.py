@@ -21,10 +21,12 @@ from PIL import Image
 
 from auvlink.cli import main
 from auvlink.pipeline.outputs import write_points_ply
-from auvlink.pipeline.results import Detection
-from auvlink.pipeline.results_mcap import NO_DATUM, cloud_steps, local_to_geodetic
+from auvlink.pipeline.results import Detection, MissionResult, Poses
+from auvlink.pipeline.results_mcap import NO_DATUM, cloud_steps, geodetic_track, local_to_geodetic
+from auvlink.pipeline.setup import MissionSetup
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import loads_scene
+from auvlink.validation import Site
 from logs_format import MissionLogReader
 from recon.shape import oriented_box
 
@@ -128,6 +130,7 @@ def test_results_mcap_decodes_every_channel_with_its_schemas(replayed: tuple[Pat
     ned = np.array([[poses[t].pose.position.x, poses[t].pose.position.y, 0.0] for t, _ in fixes])
     lat, lon = local_to_geodetic(ned, 0.0, 0.0)
     assert [(f.latitude, f.longitude) for _, f in fixes] == list(zip(lat.tolist(), lon.tolist(), strict=True))
+    assert all(abs((f.heading + 180) % 360 - 180) < 5 for _, f in fixes)  # the line runs north
     assert lat.max() == pytest.approx(ned[:, 0].max() / 6335439.0 * 180 / math.pi, rel=1e-3)  # meridian radius at 0 N
 
     # detections: one cube + label per object, oriented like the object (the pipe lies at 60 deg)
@@ -223,6 +226,24 @@ def test_zup_ply_is_east_north_up(tmp_path: Path) -> None:
     assert np.column_stack([rec["x"], rec["y"], rec["z"]]).tolist() == [[2.0, 10.0, -20.0], [2.5, 11.0, -19.5]]
     assert rec["object_id"].tolist() == [3, 3] and rec["time"].tolist() == [100.0, 101.0]
     assert main(["replay", str(tmp_path / "none.mcap"), "--out", str(tmp_path / "o"), "--ply-frame", "zup"]) == 1
+
+
+def test_location_uses_the_georeferenced_track_else_the_site_datum() -> None:
+    poses = Poses(np.array([0.0, 1.0]), np.array([[0.0, 0.0, 10.0], [100.0, 0.0, 10.0]]),
+                  np.array([[0, 0, 0, 1.0], [0, 0, 0, 1.0]]))
+    site = Site(latitude=36.0, longitude=129.5)
+    result = MissionResult(log=None, setup=MissionSetup(site=site), detections=[], track=np.zeros((0, 3)),
+                           t0_ns=10**18, poses=poses)
+    geo = geodetic_track(result)
+    assert geo.frame_id == "wgs84_site_datum_dead_reckoned" and geo.t_ns.tolist() == [10**18, 10**18 + 10**9]
+    assert geo.lat[0] == 36.0 and geo.lon.tolist() == [129.5, 129.5]
+    assert (geo.lat[1] - 36.0) * 110_950 == pytest.approx(100.0, rel=2e-3)  # ~110.95 km per degree at 36 N
+    # the geo-referenced track (GNSS), where the run has one, wins
+    result.track_info = {"time": np.array([5.0, 6.0]), "lat": np.array([np.nan, 36.1]),  # type: ignore[attr-defined]
+                         "lon": np.array([129.0, 129.6]), "depth": np.array([1.0, 2.0]), "heading": np.array([0, 90.0])}
+    geo = geodetic_track(result)
+    got = (geo.frame_id, geo.t_ns.tolist(), geo.lat.tolist(), geo.heading.tolist())
+    assert got == ("wgs84", [6 * 10**9], [36.1], [90.0])
 
 
 def test_cloud_steps_keep_the_cumulative_clouds_within_the_budget() -> None:

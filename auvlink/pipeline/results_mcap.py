@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
@@ -58,9 +58,11 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf.timestamp_pb2 import Timestamp
 from mcap.writer import CompressionType
 from mcap_protobuf.writer import Writer
+from scipy.spatial.transform import Rotation
 
 from auvlink.pipeline.results import MissionResult
 from auvlink.pipeline.results_scene import detection_entity
+from recon.frames import euler
 
 #: frame ids
 MAP, WORLD, BASE, SONAR, FAN = "map", "world", "base_link", "sonar", "sonar_fan"
@@ -113,24 +115,38 @@ def local_to_geodetic(ned: np.ndarray, lat0: float, lon0: float) -> tuple[np.nda
     return lat, lon
 
 
-def geodetic_track(result: MissionResult) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
-    """``(t_ns, lat, lon, depth, frame_id)`` of the track for ``/nav/location`` (see the module doc)."""
+class GeoTrack(NamedTuple):
+    """The track for ``/nav/location``: UTC ns, WGS84 deg, depth (m, down), heading (deg from north)."""
+
+    t_ns: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    depth: np.ndarray
+    heading: np.ndarray
+    frame_id: str
+
+
+def geodetic_track(result: MissionResult) -> GeoTrack:
+    """The track for ``/nav/location`` (see the module docstring)."""
     info = getattr(result, "track_info", None) or {}
     if info.get("time") is not None and info.get("lat") is not None and info.get("lon") is not None:
         lat, lon = np.asarray(info["lat"], float), np.asarray(info["lon"], float)
         ok = np.isfinite(lat) & np.isfinite(lon)
         if ok.any():
             t = np.asarray(info["time"], float)[ok]
-            depth = np.asarray(info.get("depth", np.zeros(len(ok))), float)[ok]
-            return np.round(t * 1e9).astype(np.int64), lat[ok], lon[ok], depth, "wgs84"
+            nan = np.full(len(ok), np.nan)
+            depth = np.asarray(info.get("depth", nan), float)[ok]
+            heading = np.asarray(info.get("heading", nan), float)[ok]
+            return GeoTrack(np.round(t * 1e9).astype(np.int64), lat[ok], lon[ok], depth, heading, "wgs84")
     poses = result.poses
     t_ns = result.t0_ns + np.round(poses.t * 1e9).astype(np.int64)
+    heading = np.degrees(euler(Rotation.from_quat(poses.quat))[0]) % 360.0 if poses.t.size else np.zeros(0)
     site = result.setup.site
     if site is not None and site.latitude is not None and site.longitude is not None:
         lat, lon = local_to_geodetic(poses.position, float(site.latitude), float(site.longitude))
-        return t_ns, lat, lon, poses.position[:, 2], "wgs84_site_datum_dead_reckoned"
+        return GeoTrack(t_ns, lat, lon, poses.position[:, 2], heading, "wgs84_site_datum_dead_reckoned")
     lat, lon = local_to_geodetic(poses.position, 0.0, 0.0)
-    return t_ns, lat, lon, poses.position[:, 2], NO_DATUM
+    return GeoTrack(t_ns, lat, lon, poses.position[:, 2], heading, NO_DATUM)
 
 
 def object_cloud(result: MissionResult, upto: int) -> PointCloud:
@@ -190,14 +206,17 @@ def messages(result: MissionResult) -> Iterator[tuple[int, str, Any]]:
         yield t_start, "/nav/track", PosesInFrame(
             timestamp=stamp(t_start), frame_id=WORLD,
             poses=[_pose(poses.position[i], poses.quat[i]) for i in sel])
-    t_ns_arr, lat, lon, depth, frame = geodetic_track(result)
-    meta = [KeyValuePair(key="notice", value=NO_DATUM_NOTICE)] if frame == NO_DATUM else []
-    for i in _thin(t_ns_arr * 1e-9, 1.0):
-        t_ns = int(t_ns_arr[i])
-        yield t_ns, "/nav/location", LocationFix(
-            timestamp=stamp(t_ns), frame_id=frame, latitude=float(lat[i]), longitude=float(lon[i]),
-            altitude=-float(depth[i]) if math.isfinite(depth[i]) else 0.0,
-            position_covariance_type=LocationFix.UNKNOWN, metadata=meta)
+    geo = geodetic_track(result)
+    meta = [KeyValuePair(key="notice", value=NO_DATUM_NOTICE)] if geo.frame_id == NO_DATUM else []
+    for i in _thin(geo.t_ns * 1e-9, 1.0):
+        t_ns = int(geo.t_ns[i])
+        fix = LocationFix(timestamp=stamp(t_ns), frame_id=geo.frame_id, latitude=float(geo.lat[i]),
+                          longitude=float(geo.lon[i]), position_covariance_type=LocationFix.UNKNOWN, metadata=meta)
+        if math.isfinite(geo.depth[i]):
+            fix.altitude = -float(geo.depth[i])  # m above the surface (the datum's height)
+        if math.isfinite(geo.heading[i]):
+            fix.heading = float(geo.heading[i])
+        yield t_ns, "/nav/location", fix
     entities = []
     clouds = set(cloud_steps([len(d.points) for d in result.detections]))
     for k, det in enumerate(result.detections):
@@ -213,7 +232,7 @@ def messages(result: MissionResult) -> Iterator[tuple[int, str, Any]]:
 
 def results_notice(result: MissionResult) -> dict[str, str]:
     """The ``auvlink_results`` metadata record."""
-    frame = geodetic_track(result)[4]
+    frame = geodetic_track(result).frame_id
     return {"log": str(result.log or ""), "mode": result.mode, "detections": str(len(result.detections)),
             "world_frame": "world: local NED (m) of the mission log; map: the same origin, ENU (z up)",
             "location_frame": frame, "notice": NO_DATUM_NOTICE if frame == NO_DATUM else ""}
