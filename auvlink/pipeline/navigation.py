@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 from auvlink.config import VehicleConfig
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
-from auvlink.pipeline.live import SONAR_FORMATS
+from auvlink.pipeline.nav_inputs import NAV_FORMATS, SONAR_FORMATS
 from auvlink.pipeline.process import ADVANCE_NS, FRAME_BLOCK, dropped_live, live_settings
 from auvlink.pipeline.results import Poses
 from auvlink.pipeline.setup import MissionSetup
@@ -52,7 +52,7 @@ def navigation_solution(log: Path, *, rate_hz: float = 10.0, config: VehicleConf
         meta = reader.metadata(decode_json=True)
         dropped = dropped_live(reader)
         sonar = [c.topic for c in reader.discover_channels().values() if c.format in SONAR_FORMATS]
-        nav = [c.topic for c in reader.channels.values() if c.format is not None and c.format not in SONAR_FORMATS]
+        nav = [c.topic for c in reader.channels.values() if c.format in NAV_FORMATS]
         first_sonar = next((m.log_time_ns for m in reader.messages(channels=sonar)), None) if sonar else None
     setup = MissionSetup.from_metadata(meta, config)
     if setup.warning:

@@ -37,6 +37,18 @@ def _table(rows: list[dict[str, Any]]) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
+def _integrity(loss: dict[str, Any]) -> list[str]:
+    """The log-integrity section: one line, and the lost spans (kind, where, seconds, messages) if any."""
+    parts = [f"<p>Log integrity: {html.escape(str(loss.get('summary') or 'complete'))}</p>"]
+    spans = loss.get("spans") or []
+    if spans:
+        parts.append(_table([{"lost": s["kind"], "byte": s["offset"], "bytes": s["bytes"],
+                              "seconds": "?" if s["seconds"] is None else s["seconds"],
+                              "messages": "?" if s["messages"] is None else s["messages"], "reason": s["reason"]}
+                             for s in spans[:200]]))
+    return parts
+
+
 def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) -> Path:
     det_rows = [{"id": d.id, "class": d.class_name, "score": d.score, "north": d.position_ned[0],
                  "east": d.position_ned[1], "depth": d.position_ned[2], "n_points": d.n_points}
@@ -71,7 +83,7 @@ def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) 
         "<h3>Events (port gaps, reopenings, errors)</h3>", _table(result.events[:200]),
         "<h2>Reconstruction</h2>",
         _table([{k: v for k, v in result.recon_stats.items() if not isinstance(v, dict)}]),
-        f"<p>Log integrity: {html.escape(result.loss or 'complete')}</p>",
+        *_integrity(result.loss_json()),
         "</body></html>",
     ]
     return write_text(out_dir / "report.html", "\n".join(parts))  # atomic: never a half report
