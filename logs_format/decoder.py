@@ -13,26 +13,48 @@ drivers use), chosen from the schema's descriptor (:mod:`logs_format.specs`: the
 e.g. ``dsp3000_incremental``) or, for logs of earlier versions whose raw channels have an empty
 schema, from the channel's message encoding (``rdi.pd0`` -> ``pd0``). JSON channels (``json``:
 poses, detections, events) decode to dicts. A frame that does not decode raises the codec's
-:class:`~auvlink.errors.DecodeError` from the decoder, as it would from a driver.
+:class:`~auvlink.errors.DecodeError` from the decoder, as it would from a driver; with
+``errors="keep"`` the decoder gives an :class:`UndecodedFrame` instead (the error and the bytes), so a
+log that recorded garbage (a live log keeps every frame, decodable or not) reads to its end.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal
 
 from mcap.decoder import DecoderFactory as McapDecoderFactory
 from mcap.records import Schema
 
 from auvlink import formats
-from auvlink.errors import UnknownFormatError
+from auvlink.errors import DecodeError, UnknownFormatError
 from logs_format.profile import JSON_MESSAGE_ENCODING
 from logs_format.specs import parse_descriptor
 
 
 def _json(data: bytes) -> Any:
     return json.loads(data)
+
+
+@dataclass(frozen=True)
+class UndecodedFrame:
+    """A raw frame its codec refused (``DecoderFactory(errors="keep")``): the format, why, the bytes."""
+
+    format: str
+    error: str
+    data: bytes
+
+
+def _keeping(fmt: formats.WireFormat) -> Callable[[bytes], Any]:
+    def decode(data: bytes) -> Any:
+        try:
+            return fmt.decode(data)
+        except DecodeError as exc:
+            return UndecodedFrame(fmt.name, str(exc), bytes(data))
+
+    return decode
 
 
 def wire_format_of(message_encoding: str, schema: Schema | None) -> formats.WireFormat | None:
@@ -53,13 +75,18 @@ def wire_format_of(message_encoding: str, schema: Schema | None) -> formats.Wire
 
 class DecoderFactory(McapDecoderFactory):
     """Decoders for the channels of an auvlink mission log (see the module docstring); ``json=False``
-    leaves JSON channels to another factory."""
+    leaves JSON channels to another factory; ``errors`` ``"raise"`` (the default) or ``"keep"``."""
 
-    def __init__(self, *, json: bool = True) -> None:
+    def __init__(self, *, json: bool = True, errors: Literal["raise", "keep"] = "raise") -> None:
+        if errors not in ("raise", "keep"):
+            raise ValueError(f"errors must be 'raise' or 'keep', got {errors!r}")
         self.json = json
+        self.errors = errors
 
     def decoder_for(self, message_encoding: str, schema: Schema | None) -> Callable[[bytes], Any] | None:
         if message_encoding == JSON_MESSAGE_ENCODING:
             return _json if self.json else None
         fmt = wire_format_of(message_encoding, schema)
-        return None if fmt is None else fmt.decode
+        if fmt is None:
+            return None
+        return _keeping(fmt) if self.errors == "keep" else fmt.decode

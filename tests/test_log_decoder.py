@@ -95,6 +95,25 @@ def test_every_raw_channel_of_a_simulated_log_decodes_through_the_factory(sim_lo
     assert np.asarray(sonar.image).shape == (512, 96)  # type: ignore[attr-defined]
 
 
+def test_a_frame_that_does_not_decode_raises_or_is_kept(tmp_path: Path) -> None:
+    from auvlink.errors import DecodeError
+    from logs_format import MissionLogWriter
+    from logs_format.decoder import UndecodedFrame
+
+    path = tmp_path / "garbage.mcap"
+    good = b"*00012991.11891\r\n"
+    with MissionLogWriter(path, flush_interval=0) as log:
+        log("pressure", "paro", 1_000, good)
+        log("pressure", "paro", 2_000, b"*0001garbage\r\n")
+    with open(path, "rb") as f, pytest.raises(DecodeError):
+        list(make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages())
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory(errors="keep")])
+        recs = [r for *_, r in reader.iter_decoded_messages()]
+    assert recs[0] == formats.get("paro").decode(good)
+    assert isinstance(recs[1], UndecodedFrame) and recs[1].format == "paro" and recs[1].data.endswith(b"garbage\r\n")
+
+
 def test_without_the_factory_mcap_cannot_decode_them(sim_log: Path) -> None:
     with open(sim_log, "rb") as f, pytest.raises(DecoderNotFoundError):
         for _ in make_reader(f).iter_decoded_messages(topics=["dvl"]):

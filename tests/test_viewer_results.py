@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 import pytest
 from google.protobuf.descriptor_pb2 import FileDescriptorSet
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 from PIL import Image
@@ -268,6 +270,22 @@ def test_oriented_box_golden() -> None:
     assert box.length_m == pytest.approx(4.0, abs=0.05) and box.width_m == pytest.approx(0.5, abs=0.05)
     assert box.centre[:2] == pytest.approx((5, -3), abs=0.05)
     assert oriented_box(np.zeros((0, 3))).length_m == 0.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(0, 360), st.floats(-50, 50), st.floats(-50, 50), st.integers(0, 2**31))
+def test_oriented_box_turns_and_moves_with_its_points(turn: float, dn: float, de: float, seed: int) -> None:
+    """Turning the points about the vertical by ``turn`` deg turns the yaw by ``turn`` (mod 180) and keeps
+    the spans; moving them moves the centre: the box belongs to the object, not to the axes."""
+    rng = np.random.default_rng(seed)
+    pts = np.column_stack([rng.uniform(-2, 2, 60), rng.uniform(-0.4, 0.4, 60), rng.uniform(9, 10, 60)])
+    a = math.radians(turn)
+    rot = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+    b0, b1 = oriented_box(pts), oriented_box(pts @ rot.T + [dn, de, 0])
+    assert ((b1.yaw_deg - b0.yaw_deg - turn + 90) % 180 - 90) == pytest.approx(0, abs=1e-6)
+    assert (b1.length_m, b1.width_m, b1.height_m) == pytest.approx((b0.length_m, b0.width_m, b0.height_m), abs=1e-9)
+    c0 = rot @ np.asarray(b0.centre) + [dn, de, 0]
+    assert np.allclose(b1.centre, c0, atol=1e-9) and 0 <= b1.yaw_deg < 180 and b1.length_m >= b1.width_m
 
 
 def test_log_export_navigation_is_the_replay_track_and_fans_are_subsampled(
