@@ -114,7 +114,7 @@ def test_results_mcap_decodes_every_channel_with_its_schemas(replayed: tuple[Pat
     # transforms: map -> world (static, NED under ENU), world -> base_link (the pose), base_link -> sonar
     tf_t, tfs = msgs["/tf"][len(msgs["/tf"]) // 2]
     pairs = {(t.parent_frame_id, t.child_frame_id): t for t in tfs.transforms}
-    assert set(pairs) == {("map", "world"), ("world", "base_link"), ("base_link", "sonar")}
+    assert set(pairs) == {("map", "world"), ("world", "base_link"), ("base_link", "sonar"), ("map", "ned")}
     q = pairs[("map", "world")].rotation
     assert (q.x, q.y, q.z, q.w) == pytest.approx((math.sqrt(0.5), math.sqrt(0.5), 0, 0))
     pose = dict(msgs["/nav/pose"])[tf_t].pose.position

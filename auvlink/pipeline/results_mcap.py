@@ -10,7 +10,9 @@ topic                       schema                 what
 ``/tf``                     foxglove.FrameTransforms  ``map`` -> ``world`` (static: ENU z-up over
                                                    the NED world frame W), ``world`` ->
                                                    ``base_link`` (the vehicle, FRD, 10 Hz),
-                                                   ``base_link`` -> ``sonar`` (mounting and tilt)
+                                                   ``base_link`` -> ``sonar`` (mounting and tilt);
+                                                   a simulated mission also ``map`` -> ``ned``
+                                                   (the frame of the log's ``truth/pose``)
 ``/nav/pose``               foxglove.PoseInFrame   the estimated pose in ``world`` (10 Hz)
 ``/nav/track``              foxglove.PosesInFrame  the whole track (1 Hz), once at the start
 ``/nav/location``           foxglove.LocationFix   latitude/longitude (1 Hz); see below
@@ -66,6 +68,9 @@ from recon.frames import euler
 
 #: frame ids
 MAP, WORLD, BASE, SONAR, FAN = "map", "world", "base_link", "sonar", "sonar_fan"
+#: the frame of a simulated log's ``truth/pose`` (the scene's NED; the simulated vehicle starts at its
+#: origin, where a replay's world frame starts too)
+TRUTH_NED = "ned"
 #: ``map`` (ENU, z up) <- ``world`` (NED): a half turn about (1, 1, 0) / sqrt 2 (x, y, z, w)
 NED_TO_ENU = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
 NO_DATUM = "no_datum_offsets_from_0N_0E"
@@ -189,6 +194,8 @@ def messages(result: MissionResult) -> Iterator[tuple[int, str, Any]]:
     """``(log_time_ns, topic, message)`` of every message of ``results.mcap`` (not sorted)."""
     poses, t0 = result.poses, result.t0_ns
     statics = [_transform(t0, MAP, WORLD, (0, 0, 0), NED_TO_ENU)]
+    if result.setup.truth:  # a simulated mission: its truth/pose channel (JSON) is in the scene's "ned" frame
+        statics.append(_transform(t0, MAP, TRUTH_NED, (0, 0, 0), NED_TO_ENU))
     if result.geometry is not None:
         m = result.geometry.mounting
         statics.append(_transform(t0, BASE, SONAR, m.lever, m.rotation.as_quat()))
