@@ -78,7 +78,7 @@ def navigation_solution(log: Path, *, rate_hz: float = 10.0, config: VehicleConf
             elif t_ns - last_adv >= ADVANCE_NS:
                 engine.advance(t_ns)
                 last_adv = t_ns
-        engine.advance(None)
+        engine.finish()  # no sonar frame: only the navigation's end (and any end-of-mission correction)
     poses = engine.poses(rate_hz)
     if not poses.t.size:
         raise AuvlinkError(f"{log}: the navigation samples give no position (DVL, gyro and pressure are needed)")
