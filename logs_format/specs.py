@@ -68,6 +68,8 @@ SPECS: dict[str, Spec] = {
     "aris": _ARIS,
     "didson": Spec(_ARIS.title + "; DIDSON-class live frames: 96 beams x 512 samples after the ARIS header",
                    _ARIS.url),
+    "nmea": Spec("National Marine Electronics Association, \"NMEA 0183 Interface Standard\" (GGA, RMC, ZDA sentences)",
+                 "https://www.nmea.org/nmea-0183.html"),
     "can": Spec("auvlink navigation CAN database (Vector DBC), auvlink/data/auvlink_nav.dbc",
                 "https://github.com/cantools/cantools"),
 }

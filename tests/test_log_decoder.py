@@ -22,6 +22,15 @@ from logs_format.specs import SPECS, parse_descriptor
 
 SCENE = """
 seed = 3
+[site]
+latitude = 36.0412
+longitude = 129.3915
+[gnss]
+rate_hz = 1.0
+sigma_m = 0.3
+wait_before_s = 3.0
+wait_after_s = 3.0
+lever_arm = [0.0, 0.0, -0.5]
 [seabed]
 depth = 20.0
 slope_deg = 0.0
@@ -75,7 +84,7 @@ def decode_all(path: Path) -> tuple[dict[str, list[object]], dict[str, tuple[str
 def test_every_raw_channel_of_a_simulated_log_decodes_through_the_factory(sim_log: Path) -> None:
     records, schemas, raw = decode_all(sim_log)
     wire = {t: s for t, s in schemas.items() if s[3] != "json"}
-    assert {"dvl", "gyro", "pressure", "sonar"} <= set(wire)
+    assert {"dvl", "gyro", "pressure", "sonar", "gnss"} <= set(wire), set(wire)
     for topic, (name, encoding, data, msg_encoding) in wire.items():
         desc = parse_descriptor(data)
         assert desc is not None, topic

@@ -230,18 +230,18 @@ def test_zup_ply_is_east_north_up(tmp_path: Path) -> None:
     assert main(["replay", str(tmp_path / "none.mcap"), "--out", str(tmp_path / "o"), "--ply-frame", "zup"]) == 1
 
 
-def test_location_uses_the_georeferenced_track_else_the_site_datum() -> None:
+def test_location_uses_the_georeferenced_track_else_says_it_has_none() -> None:
     poses = Poses(np.array([0.0, 1.0]), np.array([[0.0, 0.0, 10.0], [100.0, 0.0, 10.0]]),
                   np.array([[0, 0, 0, 1.0], [0, 0, 0, 1.0]]))
-    site = Site(latitude=36.0, longitude=129.5)
+    site = Site(latitude=36.0, longitude=129.5)  # a datum without GNSS fixes does not georeference a run
     result = MissionResult(log=None, setup=MissionSetup(site=site), detections=[], track=np.zeros((0, 3)),
                            t0_ns=10**18, poses=poses)
     geo = geodetic_track(result)
-    assert geo.frame_id == "wgs84_site_datum_dead_reckoned" and geo.t_ns.tolist() == [10**18, 10**18 + 10**9]
-    assert geo.lat[0] == 36.0 and geo.lon.tolist() == [129.5, 129.5]
-    assert (geo.lat[1] - 36.0) * 110_950 == pytest.approx(100.0, rel=2e-3)  # ~110.95 km per degree at 36 N
-    # the geo-referenced track (GNSS), where the run has one, wins
-    result.track_info = {"time": np.array([5.0, 6.0]), "lat": np.array([np.nan, 36.1]),  # type: ignore[attr-defined]
+    assert geo.frame_id == NO_DATUM and geo.t_ns.tolist() == [10**18, 10**18 + 10**9]
+    assert geo.lat[0] == 0.0 and geo.lon.tolist() == [0.0, 0.0]
+    assert geo.lat[1] * 110_574 == pytest.approx(100.0, rel=1e-4)  # 110.574 km per degree of latitude at 0 N
+    # the georeferenced track (datum + GNSS, drift-corrected), where the run has one
+    result.track_info = {"time": np.array([5.0, 6.0]), "lat": np.array([np.nan, 36.1]),
                          "lon": np.array([129.0, 129.6]), "depth": np.array([1.0, 2.0]), "heading": np.array([0, 90.0])}
     geo = geodetic_track(result)
     got = (geo.frame_id, geo.t_ns.tolist(), geo.lat.tolist(), geo.heading.tolist())
@@ -294,8 +294,9 @@ def test_log_export_navigation_is_the_replay_track_and_fans_are_subsampled(
     exp = tmp_path / "exp"
     assert main(["log", "export", str(log), "--out", str(exp)]) == 0
     rows = list(csv.DictReader((exp / "navigation.csv").open()))
-    assert list(rows[0]) == ["t_utc_s", "t_s", "north_m", "east_m", "down_m", "roll_deg", "pitch_deg", "yaw_deg",
-                             "altitude_m"]
+    assert list(rows[0]) == ["t_utc_s", "t_s", "lat_deg", "lon_deg", "north_m", "east_m", "down_m", "roll_deg",
+                             "pitch_deg", "yaw_deg", "altitude_m"]
+    assert rows[0]["lat_deg"] == "" and rows[0]["lon_deg"] == ""  # no GNSS in this mission: no lat/lon
     nav = {round(float(r["t_utc_s"]) * 1e3): [float(r[k]) for k in ("north_m", "east_m", "down_m")] for r in rows}
     msgs, _, _ = decoded(out / "results.mcap")
     diffs = [np.subtract(nav[round(t * 1e-6)], [m.pose.position.x, m.pose.position.y, m.pose.position.z])

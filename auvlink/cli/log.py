@@ -85,11 +85,12 @@ def _export(args: argparse.Namespace) -> int:
             from auvlink.pipeline.navigation import navigation_solution, write_navigation_csv
 
             try:
-                nav_rows = write_navigation_csv(navigation_solution(Path(args.log)), tmp / "navigation.csv")
+                nav = navigation_solution(Path(args.log))
+                nav_rows = write_navigation_csv(nav, tmp / "navigation.csv")
             except AuvlinkError as exc:
                 print(f"  navigation.csv not written: {exc}", file=sys.stderr)
     if nav_rows is not None:
-        print(f"  navigation.csv: {nav_rows} rows (the replay's navigation solution)")
+        print(f"  navigation.csv: {nav_rows} rows (the replay's navigation solution; positions: {nav.frame})")
     for name, rows in result.csv_rows.items():
         print(f"  {name}.csv: {rows} rows")
     for name, n in result.png_frames.items():

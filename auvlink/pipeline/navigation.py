@@ -7,11 +7,12 @@ the same time origin (a live log's stored one, else the first routed sample of a
 included), so the track is the replay's track to the last bit. ``navigation.csv`` has one row per
 navigation grid time, at most ``rate_hz``:
 
-``t_utc_s`` (s since the UNIX epoch, UTC), ``t_s`` (s since the mission's time origin), ``north_m``,
-``east_m``, ``down_m`` (the vehicle in the world frame W: local NED, origin the first navigation
-sample, or the ``[site]`` datum where the pipeline has one), ``roll_deg``, ``pitch_deg``, ``yaw_deg``
-(R_WB as yaw-pitch-roll, yaw clockwise from north in (-180, 180]), ``altitude_m`` (DVL altitude
-above the seabed, empty when stale).
+``t_utc_s`` (s since the UNIX epoch, UTC), ``t_s`` (s since the mission's time origin), ``lat_deg``,
+``lon_deg`` (WGS84, where the run is georeferenced: a ``[site]`` datum and GNSS fixes; else empty),
+``north_m``, ``east_m``, ``down_m`` (the vehicle in the world frame W: local NED at the datum when
+georeferenced, with the drift correction; else relative to the first navigation sample),
+``roll_deg``, ``pitch_deg``, ``yaw_deg`` (R_WB as yaw-pitch-roll, yaw clockwise from north in
+(-180, 180]), ``altitude_m`` (DVL altitude above the seabed, empty when stale).
 """
 
 from __future__ import annotations
@@ -34,16 +35,22 @@ from auvlink.pipeline.setup import MissionSetup
 from logs_format import MissionLogReader, Replay
 from recon.frames import euler
 
-COLUMNS = ("t_utc_s", "t_s", "north_m", "east_m", "down_m", "roll_deg", "pitch_deg", "yaw_deg", "altitude_m")
+COLUMNS = ("t_utc_s", "t_s", "lat_deg", "lon_deg", "north_m", "east_m", "down_m", "roll_deg", "pitch_deg",
+           "yaw_deg", "altitude_m")
 
 
 @dataclass(frozen=True)
 class Navigation:
-    """The solution: mission time origin (UTC ns), poses (mission s, NED m, R_WB), altitude (m)."""
+    """The solution: mission time origin (UTC ns), poses (mission s, NED m, R_WB), altitude (m),
+    latitude/longitude (deg; NaN without a georeference) and W's frame (``site`` or
+    ``first_navigation_sample``)."""
 
     t0_ns: int
     poses: Poses
     altitude: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    frame: str
 
 
 def navigation_solution(log: Path, *, rate_hz: float = 10.0, config: VehicleConfig | None = None) -> Navigation:
@@ -82,7 +89,8 @@ def navigation_solution(log: Path, *, rate_hz: float = 10.0, config: VehicleConf
     poses = engine.poses(rate_hz)
     if not poses.t.size:
         raise AuvlinkError(f"{log}: the navigation samples give no position (DVL, gyro and pressure are needed)")
-    return Navigation(engine.t0_ns or 0, poses, engine.nav.altitude_at(poses.t))
+    lat, lon = engine.georef.latlon(poses.position)
+    return Navigation(engine.t0_ns or 0, poses, engine.nav.altitude_at(poses.t), lat, lon, engine.georef.frame())
 
 
 def write_navigation_csv(nav: Navigation, path: Path) -> int:
@@ -95,6 +103,7 @@ def write_navigation_csv(nav: Navigation, path: Path) -> int:
         for i in range(p.t.size):
             alt = nav.altitude[i]
             w.writerow([f"{nav.t0_ns * 1e-9 + p.t[i]:.6f}", f"{p.t[i]:.6f}",
+                        *(f"{v:.9f}" if np.isfinite(v) else "" for v in (nav.lat[i], nav.lon[i])),
                         *(f"{v:.6f}" for v in p.position[i]),
                         f"{roll[i]:.4f}", f"{pitch[i]:.4f}", f"{yaw[i]:.4f}",
                         f"{alt:.4f}" if np.isfinite(alt) else ""])

@@ -1,5 +1,9 @@
 """Write a run's outputs: ``detections.jsonl``, ``cloud.ply``, one PLY per object, ``results.mcap``
-(the results in Foxglove schemas, :mod:`auvlink.pipeline.results_mcap`), ``summary.json``.
+(the results in Foxglove schemas, :mod:`auvlink.pipeline.results_mcap`), ``summary.json``, and the GIS
+files of :mod:`auvlink.pipeline.gis` (``track.csv``; with a georeference ``detections.geojson``,
+``track.geojson``, ``detections.kml``). ``summary.json``'s ``georef`` says which frame the positions are
+in (``frame``: ``site`` or ``first_navigation_sample``), the datum, the anchor, the closure error and
+the GNSS fixes used and rejected.
 
 PLY files: per point x, y, z (double, m), ``object_id`` (uint) and ``time`` (double, s since the UNIX
 epoch, UTC: when the point was seen). Their frame is the world frame W, local NED (x north, y east,
@@ -118,6 +122,9 @@ def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = Fa
            unwritten)
     _write(out_dir, "cloud.ply", lambda p: write_points_ply(p, result.detections, ply_frame), unwritten)
     _write(out_dir, "results.mcap", lambda p: write_results_mcap(result, p), unwritten)
+    from auvlink.pipeline.gis import write_gis
+
+    gis_files = write_gis(result, lambda name, fn: _write(out_dir, name, fn, unwritten))
     summary = {
         "log": str(result.log),
         "detections": len(result.detections),
@@ -133,6 +140,7 @@ def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = Fa
         "scores": score_detections(result),
         "ply_frame": ply_frame,
         "results_mcap": {"fan_frames": len(result.fan_frames), "poses": int(result.poses.t.size)},
+        "georef": {**result.georef, "files": gis_files},
     }
     if unwritten is not None:
         summary["unwritten"] = unwritten  # the summary itself last: what it says is all that failed before it

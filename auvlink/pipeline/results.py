@@ -34,6 +34,11 @@ class Detection:
     t_last: float
     points: np.ndarray
     times: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per point, s since the epoch
+    #: where position_ned is: "site" (the datum, anchored to GNSS) or "first_navigation_sample"
+    frame: str = "first_navigation_sample"
+    latitude: float | None = None  # WGS84 deg, when georeferenced
+    longitude: float | None = None
+    drift_correction_ne: tuple[float, float] = (0.0, 0.0)  # m, applied at the end (closure error share)
 
     @property
     def box(self) -> OrientedBox:
@@ -44,12 +49,16 @@ class Detection:
         """A line of ``detections.jsonl``: ``yaw_deg`` is the heading of the principal horizontal axis
         (deg clockwise from north, [0, 180)), ``length_m`` / ``width_m`` the spans along / across it."""
         box = self.box
-        return {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
-                "position_ned": [round(v, 4) for v in self.position_ned],
-                "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
-                "yaw_deg": round(box.yaw_deg, 2), "length_m": round(box.length_m, 4),
-                "width_m": round(box.width_m, 4),
-                "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud}
+        out = {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
+               "position_ned": [round(v, 4) for v in self.position_ned],
+               "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
+               "yaw_deg": round(box.yaw_deg, 2), "length_m": round(box.length_m, 4),
+               "width_m": round(box.width_m, 4),
+               "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame}
+        if self.latitude is not None and self.longitude is not None:
+            out["lat"], out["lon"] = round(self.latitude, 9), round(self.longitude, 9)
+            out["drift_correction_ne"] = [round(v, 4) for v in self.drift_correction_ne]
+        return out
 
 
 @dataclass(frozen=True)
@@ -110,6 +119,8 @@ class MissionResult:
     t0_ns: int = 0  # ns since the epoch of mission time 0 (``t0`` exactly)
     poses: Poses = field(default_factory=Poses.empty)
     fan_frames: list[FanFrame] = field(default_factory=list)
+    georef: dict[str, Any] = field(default_factory=dict)  # datum, anchor, closure, fix counts (Georef.summary)
+    track_info: dict[str, np.ndarray] = field(default_factory=dict)  # the columns of track.csv
 
     def loss_json(self) -> dict[str, Any]:
         """What the log lost, as one JSON object: replay gives the reader's loss report (``state``,

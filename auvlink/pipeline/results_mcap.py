@@ -31,11 +31,12 @@ message of a topic, so none depends on earlier ones). The clouds are published a
 while their sum stays under ``CLOUD_BUDGET`` bytes, else at every k-th object (the smallest k that
 fits) and always at the last one.
 
-``/nav/location``: with the geo-referenced track (``MissionResult.track_info`` ``lat``/``lon``, from
-GNSS) those positions, ``frame_id`` ``wgs84``; else, with a ``[site]`` datum, the dead-reckoned
-track placed at the datum (``wgs84_site_datum_dead_reckoned``); else the datum-less track as
-offsets from 0 N 0 E (``frame_id`` ``no_datum_offsets_from_0N_0E``, a ``notice`` in each fix's
-metadata and in the file's ``auvlink_results`` metadata record): the shape is right, the place is not.
+``/nav/location``: with a georeference (a datum and GNSS fixes: ``MissionResult.track_info``
+``lat``/``lon``, the drift-corrected track of :mod:`auvlink.pipeline.georef`) those positions,
+``frame_id`` ``wgs84``; without one (no datum, or no usable fix: the positions are relative to the
+first navigation sample) the dead-reckoned track as offsets from 0 N 0 E (``frame_id``
+``no_datum_offsets_from_0N_0E``, a ``notice`` in each fix's metadata and in the file's
+``auvlink_results`` metadata record): the shape is right, the place is not.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ from mcap.writer import CompressionType
 from mcap_protobuf.writer import Writer
 from scipy.spatial.transform import Rotation
 
+from auvlink.geodesy import Datum
 from auvlink.pipeline.results import MissionResult
 from auvlink.pipeline.results_scene import detection_entity
 from recon.frames import euler
@@ -74,9 +76,8 @@ TRUTH_NED = "ned"
 #: ``map`` (ENU, z up) <- ``world`` (NED): a half turn about (1, 1, 0) / sqrt 2 (x, y, z, w)
 NED_TO_ENU = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
 NO_DATUM = "no_datum_offsets_from_0N_0E"
-NO_DATUM_NOTICE = ("no datum: latitude/longitude are the dead-reckoned track's offsets from 0 N 0 E "
-                   "(shape right, place not); give the vehicle configuration a [site] or a GNSS receiver")
-_A, _E2 = 6378137.0, 6.69437999014e-3  # WGS84
+NO_DATUM_NOTICE = ("not georeferenced: latitude/longitude are the dead-reckoned track's offsets from 0 N 0 E "
+                   "(shape right, place not); a [site] datum and a GNSS receiver with a fix georeference a run")
 CLOUD_BUDGET = 16 << 20  # bytes of /objects/cloud in all
 _POINT_BYTES = 20
 
@@ -109,14 +110,11 @@ def _thin(t: np.ndarray, rate_hz: float) -> np.ndarray:
 
 
 def local_to_geodetic(ned: np.ndarray, lat0: float, lon0: float) -> tuple[np.ndarray, np.ndarray]:
-    """Latitude/longitude (deg) of local NED offsets (m) from (lat0, lon0): the WGS84 radii of curvature
-    at the origin (tangent plane; < 1 cm off within 2 km)."""
-    phi = math.radians(lat0)
-    s2 = math.sin(phi) ** 2
-    r_n = _A * (1 - _E2) / (1 - _E2 * s2) ** 1.5  # meridian
-    r_e = _A / math.sqrt(1 - _E2 * s2)  # prime vertical
-    lat = lat0 + np.degrees(ned[:, 0] / r_n)
-    lon = lon0 + np.degrees(ned[:, 1] / (r_e * max(math.cos(phi), 1e-9)))
+    """Latitude/longitude (deg) of local NED offsets (m) from (lat0, lon0) on the surface (PROJ
+    topocentric, :class:`auvlink.geodesy.Datum`; the down component is left out: the fix's altitude)."""
+    p = np.asarray(ned, dtype=np.float64).reshape(-1, 3).copy()
+    p[:, 2] = 0.0
+    lat, lon, _ = Datum(lat0, lon0).to_geodetic(p)
     return lat, lon
 
 
@@ -146,10 +144,6 @@ def geodetic_track(result: MissionResult) -> GeoTrack:
     poses = result.poses
     t_ns = result.t0_ns + np.round(poses.t * 1e9).astype(np.int64)
     heading = np.degrees(euler(Rotation.from_quat(poses.quat))[0]) % 360.0 if poses.t.size else np.zeros(0)
-    site = result.setup.site
-    if site is not None and site.latitude is not None and site.longitude is not None:
-        lat, lon = local_to_geodetic(poses.position, float(site.latitude), float(site.longitude))
-        return GeoTrack(t_ns, lat, lon, poses.position[:, 2], heading, "wgs84_site_datum_dead_reckoned")
     lat, lon = local_to_geodetic(poses.position, 0.0, 0.0)
     return GeoTrack(t_ns, lat, lon, poses.position[:, 2], heading, NO_DATUM)
 
