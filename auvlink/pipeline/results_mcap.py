@@ -131,7 +131,7 @@ class GeoTrack(NamedTuple):
 
 def geodetic_track(result: MissionResult) -> GeoTrack:
     """The track for ``/nav/location`` (see the module docstring)."""
-    info = getattr(result, "track_info", None) or {}
+    info = result.track_info
     if info.get("time") is not None and info.get("lat") is not None and info.get("lon") is not None:
         lat, lon = np.asarray(info["lat"], float), np.asarray(info["lon"], float)
         ok = np.isfinite(lat) & np.isfinite(lon)
@@ -235,7 +235,9 @@ def results_notice(result: MissionResult) -> dict[str, str]:
     """The ``auvlink_results`` metadata record."""
     frame = geodetic_track(result).frame_id
     return {"log": str(result.log or ""), "mode": result.mode, "detections": str(len(result.detections)),
-            "world_frame": "world: local NED (m) of the mission log; map: the same origin, ENU (z up)",
+            "world_frame": "world: local NED (m), origin " + (
+                "the site datum (georeferenced)" if result.georef.get("georeferenced")
+                else "the first navigation sample") + "; map: the same origin, ENU (z up)",
             "location_frame": frame, "notice": NO_DATUM_NOTICE if frame == NO_DATUM else ""}
 
 
