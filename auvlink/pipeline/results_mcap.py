@@ -70,8 +70,8 @@ from recon.frames import euler
 
 #: frame ids
 MAP, WORLD, BASE, SONAR, FAN = "map", "world", "base_link", "sonar", "sonar_fan"
-#: the frame of a simulated log's ``truth/pose`` (the scene's NED; the simulated vehicle starts at its
-#: origin, where a replay's world frame starts too)
+#: the frame of a simulated log's ``truth/pose``: the scene's NED, at its datum; the same as ``world`` when
+#: the run is georeferenced at that datum, or when (no GNSS) the vehicle starts at the scene's origin
 TRUTH_NED = "ned"
 #: ``map`` (ENU, z up) <- ``world`` (NED): a half turn about (1, 1, 0) / sqrt 2 (x, y, z, w)
 NED_TO_ENU = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
