@@ -39,6 +39,8 @@ class Detection:
     latitude: float | None = None  # WGS84 deg, when georeferenced
     longitude: float | None = None
     drift_correction_ne: tuple[float, float] = (0.0, 0.0)  # m, applied at the end (closure error share)
+    passes: tuple[tuple[float, float], ...] = ()  # time spans (s since the epoch) of the passes that saw it
+    seabed_depth: float | None = None  # m, NED: the seabed under it (recon's model of the poll)
 
     @property
     def box(self) -> OrientedBox:
@@ -54,7 +56,9 @@ class Detection:
                "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
                "yaw_deg": round(box.yaw_deg, 2), "length_m": round(box.length_m, 4),
                "width_m": round(box.width_m, 4),
-               "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame}
+               "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame,
+               "passes": [list(p) for p in self.passes],
+               "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, 4)}
         if self.latitude is not None and self.longitude is not None:
             out["lat"], out["lon"] = round(self.latitude, 9), round(self.longitude, 9)
             out["drift_correction_ne"] = [round(v, 4) for v in self.drift_correction_ne]
