@@ -64,7 +64,7 @@ from mcap_protobuf.writer import Writer
 from scipy.spatial.transform import Rotation
 
 from auvlink.geodesy import Datum
-from auvlink.pipeline.results import MissionResult
+from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.results_scene import detection_entity
 from recon.frames import euler
 
@@ -148,9 +148,16 @@ def geodetic_track(result: MissionResult) -> GeoTrack:
     return GeoTrack(t_ns, lat, lon, poses.position[:, 2], heading, NO_DATUM)
 
 
+def by_time(result: MissionResult) -> list[Detection]:
+    """The detections in the order they became final (``t_last``; an object a later pass updated
+    comes at its update)."""
+    return sorted(result.detections, key=lambda d: d.t_last)
+
+
 def object_cloud(result: MissionResult, upto: int) -> PointCloud:
-    """The points of detections ``[0, upto)`` as one ``foxglove.PointCloud`` in ``world``."""
-    dets = result.detections[:upto]
+    """The points of the first ``upto`` detections of :func:`by_time` as one ``foxglove.PointCloud``
+    in ``world``."""
+    dets = by_time(result)[:upto]
     rec = np.zeros(sum(len(d.points) for d in dets),
                    dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("object_id", "<u4"), ("time", "<f4")])
     k = 0
@@ -219,8 +226,9 @@ def messages(result: MissionResult) -> Iterator[tuple[int, str, Any]]:
             fix.heading = float(geo.heading[i])
         yield t_ns, "/nav/location", fix
     entities = []
-    clouds = set(cloud_steps([len(d.points) for d in result.detections]))
-    for k, det in enumerate(result.detections):
+    dets = by_time(result)
+    clouds = set(cloud_steps([len(d.points) for d in dets]))
+    for k, det in enumerate(dets):
         t_ns = round(det.t_last * 1e9)
         entities.append(detection_entity(det, t_ns, WORLD))
         if k in clouds:
