@@ -100,7 +100,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
         decode_s += time.perf_counter() - t_read
         engine.finish()
         stats = replay.stats()
-        loss = str(getattr(replay, "loss", "") or "")
+        loss = "" if replay.loss.complete and not replay.loss.lossy else replay.loss.describe()  # "" = whole, as live
     bar.close()
     timings = {"start_up_s": warm_s, "replay_decode_s": decode_s, "navigation_s": engine.times.total("navigation"),
                "reconstruction_s": engine.times.total("reconstruction"),
