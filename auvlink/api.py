@@ -223,7 +223,7 @@ class _Stopped(Exception):
     """Raised inside the pipeline thread when the consumer stopped iterating."""
 
 
-class ReplayRun(Iterator[Detection]):
+class ReplayRun(Iterator["Detection"]):
     """A replay in progress: iterate for the :class:`~auvlink.pipeline.results.Detection` objects as the
     engine makes them (the engine runs in a thread and waits when the consumer is slower: at most
     ``buffer`` detections are held); :attr:`result` is the whole :class:`MissionResult` after the last.
