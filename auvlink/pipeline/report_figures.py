@@ -76,7 +76,7 @@ def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None) 
     if hp is not None and hp.size:
         p = _decimate(np.asarray(hp), MAP_POINTS)
         fig.add_trace(go.Scatter(x=p[:, 1], y=p[:, 0], mode="markers", name=f"highlight points ({len(hp)})",
-                                 marker={"size": 2, "color": "#6baed6", "opacity": 0.5}, hoverinfo="skip"))
+                                 marker={"size": 3, "color": "#3182bd", "opacity": 0.55}, hoverinfo="skip"))
     if result.track.size:
         fig.add_trace(go.Scatter(x=result.track[:, 1], y=result.track[:, 0], mode="lines",
                                  name="navigation (dead reckoning)", line={"color": "#555", "width": 1.5},
@@ -157,7 +157,7 @@ def object_figure(det: Detection, truth: TruthObject | None = None) -> go.Figure
              "yaxis": {"title": "north [m]", "range": [-half[0], half[0]]},
              "zaxis": {"title": "up [m]", "range": [-half[2], half[2]]},
              "aspectmode": "manual", "aspectratio": {"x": aspect[1], "y": aspect[0], "z": aspect[2]},
-             "camera": {"eye": {"x": 1.15, "y": -1.15, "z": 0.8}}}
+             "camera": {"eye": {"x": 1.4, "y": -1.4, "z": 1.0}}}
     fig.update_layout(height=420, margin={"l": 0, "r": 0, "t": 30, "b": 0}, showlegend=False,
                       scene=scene, scene2=scene)
     return fig
