@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from tqdm import tqdm
 
+from auvlink.progress import progress_bar
 from auvlink.sim.catalog import CLASSES, mesh_for
 from classify.errors import SynthesisError
 from classify.synthesis import MeshSynthesizer, SynthesisSettings
@@ -99,7 +99,7 @@ def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: S
                    cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
     """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given)."""
     pts, labels, meta = [], [], []
-    for label, name in enumerate(tqdm(class_names, desc="synthesize", disable=not progress, leave=False)):
+    for label, name in enumerate(progress_bar(class_names, enabled=progress, desc="synthesize", leave=False)):
         vertices, triangles = mesh_for(name)
         path = None
         if cache_dir is not None:

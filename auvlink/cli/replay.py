@@ -110,8 +110,16 @@ def json_result(command: str, log: Path, out: Path, summary: dict[str, Any]) -> 
         else None,
         "outputs": outputs,
         "timings": summary.get("timings"),
-        "log_loss": summary.get("log_loss") or "complete",
+        "log_loss": summary.get("log_loss") or {"state": "complete"},  # the log's loss report (JSON)
     }
+
+
+def loss_line(log: Path, summary: dict[str, object]) -> str | None:
+    """One line when the log was damaged or cut off (what was lost, in seconds and messages), else None."""
+    loss = summary.get("log_loss")
+    if not isinstance(loss, dict) or loss.get("state", "complete") == "complete":
+        return None
+    return f"auvlink: warning: {log}: {loss.get('summary')}"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -119,6 +127,9 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
     summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
                       report=not args.no_report, progress=not args.quiet, config=args.config)
+    line = loss_line(args.log, summary)
+    if line:
+        print(line, file=sys.stderr)
     if args.json:
         sys.stdout.write(dumps(json_result("replay", args.log, args.out, summary)) + "\n")
         return 0

@@ -25,11 +25,11 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from tqdm import tqdm
 
 import recon
 from auvlink import sim
 from auvlink.pipeline.engine import default_recon_config
+from auvlink.progress import progress_bar
 from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng
 from classify.evaluate import EvalReport
@@ -147,7 +147,7 @@ def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool 
             depths = np.asarray(z["seabed"], dtype=np.float64)
         return [ReconCloud(*job, p, float(d)) for job, p, d in zip(jobs, parts, depths, strict=True)]
     out = []
-    for name, h, tilt, alt, lat in tqdm(jobs, desc="simulate+recon", disable=not progress):
+    for name, h, tilt, alt, lat in progress_bar(jobs, enabled=progress, desc="simulate+recon"):
         pts, depth = reconstruct_pass(name, h, tilt, alt, lat, s)
         out.append(ReconCloud(name, h, tilt, alt, lat, pts, depth))
     if path is not None:

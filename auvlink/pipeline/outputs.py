@@ -94,7 +94,7 @@ def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = Fa
         "engine": result.engine,
         "recon": result.recon_stats,
         "devices": result.replay_stats,
-        "log_loss": result.loss,
+        "log_loss": result.loss_json(),
         "scores": score_detections(result),
     }
     if unwritten is not None:

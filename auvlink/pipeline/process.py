@@ -16,12 +16,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
 from auvlink.config import VehicleConfig
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup
+from auvlink.progress import progress_bar
 from logs_format import MissionLogReader, Replay
 from recon.pipeline import ReconConfig
 
@@ -68,8 +67,8 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
     replay = Replay(log, speed=speed)
-    bar = tqdm(total=round(duration or 0.0, 1), unit="s", desc="replay", disable=not progress,
-               leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
+    bar = progress_bar(total=round(duration or 0.0, 1), enabled=progress, unit="s", desc="replay",
+                       leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
     last_adv = None
     shown = 0.0
     decode_s = 0.0
@@ -100,7 +99,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
         decode_s += time.perf_counter() - t_read
         engine.finish()
         stats = replay.stats()
-        loss = "" if replay.loss.complete and not replay.loss.lossy else replay.loss.describe()  # "" = whole, as live
+        loss = replay.loss.to_json()  # what the log lost (logs_format.loss.LossReport), as JSON
     bar.close()
     timings = {"start_up_s": warm_s, "replay_decode_s": decode_s, "navigation_s": engine.times.total("navigation"),
                "reconstruction_s": engine.times.total("reconstruction"),
@@ -134,7 +133,8 @@ def dropped_live(reader: MissionLogReader) -> set[tuple[str, int] | tuple[str, i
 ADVANCE_NS = 4_000_000_000  # replay hands samples to the engine in 4 s blocks (results do not depend on it)
 
 
-def result_of(engine: Engine, log: Path | None, timings: dict[str, float], stats: dict[str, Any], loss: str,
+def result_of(engine: Engine, log: Path | None, timings: dict[str, float], stats: dict[str, Any],
+              loss: dict[str, Any] | str,
               mode: str, drops: dict[str, int] | None = None, events: list[dict[str, Any]] | None = None
               ) -> MissionResult:
     return MissionResult(log=log, setup=engine.setup, detections=engine.detections, track=engine.track(),

@@ -82,6 +82,7 @@ def _objects(result: MissionResult, matched: figs.TruthMatch | None) -> list[dic
 
 
 def _health(result: MissionResult, summary: dict[str, Any]) -> dict[str, Any]:
+    loss = result.loss_json()
     devices = [{"device": k, **{c: x for c, x in _scalars(v).items() if c not in ("name", "url")}}
                for k, v in (result.replay_stats or {}).items() if isinstance(v, dict)]
     cols: list[str] = []
@@ -90,7 +91,7 @@ def _health(result: MissionResult, summary: dict[str, Any]) -> dict[str, Any]:
     return {"device_cols": cols, "devices": devices, "drops": result.drops, "events": result.events[:MAX_EVENTS],
             "events_total": len(result.events),
             "event_cols": sorted({k for e in result.events[:MAX_EVENTS] for k in e}, key=_event_key),
-            "loss": result.loss or str(summary.get("log_loss") or "") or "complete",
+            "loss": str(loss.get("summary") or "complete"), "loss_spans": (loss.get("spans") or [])[:MAX_EVENTS],
             "recon": _scalars(result.recon_stats), "unwritten": summary.get("unwritten") or []}
 
 

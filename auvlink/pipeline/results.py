@@ -65,9 +65,17 @@ class MissionResult:
     latency: dict[str, dict[str, Any]] = field(default_factory=dict)
     replay_stats: dict[str, Any] = field(default_factory=dict)
     recon_stats: dict[str, Any] = field(default_factory=dict)
-    loss: str = ""
+    loss: dict[str, Any] | str = ""  # replay: the log's loss report (JSON); live: why writing the log failed
     highlight_points: np.ndarray | None = None
     drops: dict[str, int] = field(default_factory=dict)
     events: list[dict[str, Any]] = field(default_factory=list)
     mode: str = "replay"
     engine: dict[str, Any] = field(default_factory=dict)
+
+    def loss_json(self) -> dict[str, Any]:
+        """What the log lost, as one JSON object: replay gives the reader's loss report (``state``,
+        ``messages_lost``, ``seconds_lost``, ``spans``, ...); live gives ``{}``, or ``state`` =
+        ``write_failed`` with the reason when writing the log failed."""
+        if isinstance(self.loss, dict):
+            return self.loss
+        return {"state": "write_failed", "summary": self.loss} if self.loss else {}

@@ -36,8 +36,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
+from auvlink.progress import progress_bar
 from auvlink.sim.emit import Event, block_events, device_formats
 from auvlink.sim.noise import NoiseConfig, SimError
 from auvlink.sim.scene import Scene
@@ -187,8 +187,9 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
     j = 0  # next truth pose
     with contextlib.ExitStack() as stack:  # the pool forks before any thread (tqdm's monitor) starts
         pool = stack.enter_context(worker_pool(run, n_workers)) if n_workers > 1 else None
-        bar = stack.enter_context(tqdm(total=len(run.measurements.sonar.t), unit="frame", desc="auvlink sim",
-                                       disable=not progress, file=sys.stderr, dynamic_ncols=True))
+        bar = stack.enter_context(progress_bar(total=len(run.measurements.sonar.t), enabled=progress,
+                                               unit="frame", desc="auvlink sim", file=sys.stderr,
+                                               dynamic_ncols=True))
         log = stack.enter_context(MissionLogWriter(out, flush_interval=0.0, fsync=False, software=False,
                                                    keep_failed=False))  # a failed run leaves ``out`` as it was
         log.add_metadata(META_SOFTWARE, {"name": "auvlink", "version": __version__, "generator": "auvlink.sim"})
