@@ -110,3 +110,31 @@ def test_report_names_false_and_missed_detections(replayed: tuple[Path, dict[str
     reef = next(d for d in result.detections if d.position_ned[0] > 25)
     assert f"#{reef.id} unknown" in false.group(1) and false.group(1).count("<li>") == 1
     assert "reef_c at north 40.00 m, east 5.00 m" in missed.group(1) and missed.group(1).count("<li>") == 1
+
+
+def test_a_full_disk_gets_the_page_without_figures(replayed: tuple[Path, dict[str, object], Path],
+                                                   tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import errno
+
+    import auvlink
+    from auvlink.atomic import write_text
+    from auvlink.pipeline import report
+
+    def small_disk(path: Path, text: str) -> Path:  # a 1 MB file-size cap, as RLIMIT_FSIZE or a quota
+        if len(text.encode()) > 1_000_000:
+            raise OSError(errno.EFBIG, "File too large")
+        return write_text(path, text)
+
+    _, _, log = replayed
+    result = auvlink.replay(log, classify=False).result
+    monkeypatch.setattr(report, "write_text", small_disk)
+    html = report.write_report(result, {"scores": None}, tmp_path).read_text()
+    assert "Plotly" not in html and "interactive figures (map, 3D views, timings) are left out" in html
+    assert "File too large" in html and 'id="detection-table"' in html and html.count("data:image/png") >= 2
+
+    def read_only(path: Path, text: str) -> Path:
+        raise PermissionError(errno.EACCES, "Permission denied")
+
+    monkeypatch.setattr(report, "write_text", read_only)
+    with pytest.raises(PermissionError):  # anything but a full disk is not hidden
+        report.write_report(result, {"scores": None}, tmp_path)

@@ -11,6 +11,7 @@ drops, port events, the log's loss report).
 from __future__ import annotations
 
 import datetime as dt
+import errno
 from pathlib import Path
 from typing import Any
 
@@ -64,7 +65,7 @@ def _detection_rows(result: MissionResult, matched: figs.TruthMatch | None) -> l
     return rows
 
 
-def _objects(result: MissionResult, matched: figs.TruthMatch | None) -> list[dict[str, Any]]:
+def _objects(result: MissionResult, matched: figs.TruthMatch | None, figures: bool) -> list[dict[str, Any]]:
     order = sorted(range(len(result.detections)), key=lambda i: -result.detections[i].n_points)
     keep = sorted(order[:MAX_OBJECT_VIEWS])
     frames = detection_frames(result.log, [result.detections[i] for i in keep])
@@ -75,7 +76,7 @@ def _objects(result: MissionResult, matched: figs.TruthMatch | None) -> list[dic
         truth = result.setup.truth[j] if j is not None else None
         out.append({"id": d.id, "class": d.class_name, "score": d.score, "n_points": d.n_points,
                     "truth": truth.class_name if truth else None,
-                    "view": figs.to_div(figs.object_figure(d, truth), f"object-{d.id}"),
+                    "view": figs.to_div(figs.object_figure(d, truth), f"object-{d.id}") if figures else None,
                     "frames": [{"t": f.t - result.t0, "png": f.png_b64, "range": f.range_m}
                                for f in frames.get(d.id, [])]})
     return out
@@ -100,17 +101,19 @@ def _event_key(k: str) -> tuple[int, str]:
     return (first.index(k) if k in first else len(first), k)
 
 
-def render_report(result: MissionResult, summary: dict[str, Any]) -> str:
-    """The report page as one HTML string (see the module docstring)."""
+def render_report(result: MissionResult, summary: dict[str, Any], *, figures: bool = True, note: str = "") -> str:
+    """The report page as one HTML string (see the module docstring). ``figures=False`` leaves out
+    plotly.js and the interactive figures (the page of a full disk: tables, lists and sonar fans,
+    ``note`` saying why)."""
     scores = summary.get("scores")
     matched = figs.truth_match(result, float(scores.get("radius_m", 1.0)) if isinstance(scores, dict) else 1.0)
     truth = result.setup.truth
-    timing = figs.timings_figure(result)
+    timing = figs.timings_figure(result) if figures else None
     ctx = {
         "version": __version__, "mode": result.mode, "log": str(result.log),
         "written": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        "plotlyjs": get_plotlyjs(),
-        "map": figs.to_div(figs.survey_map_figure(result, matched), "survey-map"),
+        "plotlyjs": get_plotlyjs() if figures else "", "note": note,
+        "map": figs.to_div(figs.survey_map_figure(result, matched), "survey-map") if figures else None,
         "detections": _detection_rows(result, matched),
         "has_truth": bool(truth), "scores": _scalars(scores) if isinstance(scores, dict) else None,
         "false_detections": [r for r in _detection_rows(result, matched) if r["truth"] == "false detection"],
@@ -118,7 +121,7 @@ def render_report(result: MissionResult, summary: dict[str, Any]) -> str:
                     "east": truth[j].position_ned[1], "heading": truth[j].heading_deg}
                    for j in (matched.missed if matched else [])],
         "radius_m": matched.radius_m if matched else None,
-        "objects": _objects(result, matched), "n_objects": len(result.detections),
+        "objects": _objects(result, matched, figures), "n_objects": len(result.detections),
         "timing": figs.to_div(timing, "timings") if timing is not None else None,
         "timings": result.timings, "latency": result.latency,
         "health": _health(result, summary),
@@ -127,5 +130,20 @@ def render_report(result: MissionResult, summary: dict[str, Any]) -> str:
 
 
 def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) -> Path:
-    """Write ``out_dir/report.html`` (atomically: never a half report); returns its path."""
-    return write_text(out_dir / "report.html", render_report(result, summary))
+    """Write ``out_dir/report.html`` (atomically: never a half report); returns its path.
+
+    The page is a few MB (plotly.js inline). When the disk cannot take it (full, or a file-size or
+    quota limit) the page is written again without the interactive figures (some 100 kB: tables,
+    the false and missed detections, sonar fans), saying so at its top; any other error raises."""
+    path = out_dir / "report.html"
+    try:
+        return write_text(path, render_report(result, summary))
+    except OSError as exc:
+        if exc.errno not in _FULL:
+            raise
+        note = (f"The interactive figures (map, 3D views, timings) are left out: the full page did not fit "
+                f"on the disk ({exc.strerror or exc}).")
+        return write_text(path, render_report(result, summary, figures=False, note=note))
+
+
+_FULL = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT)
