@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast, overload
 
 from auvlink import formats
 from auvlink.decode_file import CHUNK, DecodeResult
@@ -115,7 +115,15 @@ class Records(Iterator[Any]):
             st.framer = framer.stats.as_dict()
 
 
-def read(path: str | Path, format: str | None = None) -> Iterator[Any]:
+@overload
+def read(path: str | Path, format: str) -> Records: ...
+
+
+@overload
+def read(path: str | Path, format: None = None) -> Iterator[LogRecord]: ...
+
+
+def read(path: str | Path, format: str | None = None) -> Records | Iterator[LogRecord]:
     """The records of ``path``, in file order, decoded while iterating.
 
     ``format`` names the wire format of a raw capture (``"pd0"``, ``"didson"``, ``"aris"``, ...;
@@ -176,7 +184,8 @@ class MissionLog:
                 end_ns: int | None = None) -> Iterator[LogRecord]:
         """Decoded messages in log-time order, optionally of some channels (topic or device names) and
         ``start_ns <= t < end_ns``: raw frames through the live framers and codecs (as replay), JSON
-        channels parsed. Frames of a format this install does not know are skipped."""
+        channels parsed. Frames of a format this install does not know, undecodable frames and damaged
+        JSON messages are skipped (the drivers count them: ``auvlink log info`` lists them)."""
         with Replay(self.path, channels=channels, start_ns=start_ns, end_ns=end_ns) as rep:
             yield from self._decoded(rep)
 
@@ -187,7 +196,11 @@ class MissionLog:
             info = rep.reader.channels.get(msg.channel)
             if msg.format is None:
                 if info is not None and info.message_encoding == "json":
-                    yield LogRecord(msg.channel, info.device, None, msg.log_time_ns, json.loads(msg.data))
+                    try:
+                        value = json.loads(msg.data)
+                    except ValueError:  # a damaged message: skipped, as an undecodable frame is
+                        continue
+                    yield LogRecord(msg.channel, info.device, None, msg.log_time_ns, value)
                 continue
             drv = rep.driver(msg)
             if drv is None:
@@ -271,7 +284,7 @@ class ReplayRun(Iterator["Detection"]):
             raise StopIteration
         kind, value = self._q.get()
         if kind == "det":
-            return value
+            return cast("Detection", value)
         self._done = True
         self._thread.join()
         if kind == "err":
