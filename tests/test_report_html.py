@@ -138,3 +138,18 @@ def test_a_full_disk_gets_the_page_without_figures(replayed: tuple[Path, dict[st
     monkeypatch.setattr(report, "write_text", read_only)
     with pytest.raises(PermissionError):  # anything but a full disk is not hidden
         report.write_report(result, {"scores": None}, tmp_path)
+
+
+def test_demo_json_is_one_object(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from small_mission import SCENE
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE)
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--scene", str(scene), "--json"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)  # stdout holds the JSON object and nothing else
+    assert doc["command"] == "demo" and doc["log"] == str(out / "mission.mcap")
+    assert doc["counts"]["by_class"] == {"pipe": 1, "reef_c": 1} and doc["scores"]["detection_recall"] == 1.0
+    assert doc["timings"]["simulation_s"] > 0 and Path(doc["outputs"]["report.html"]).is_file()
+    assert "[1/2] simulating the mission" in captured.err  # the progress lines went to stderr
