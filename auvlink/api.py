@@ -202,18 +202,16 @@ class MissionLog:
                         continue
                     yield LogRecord(msg.channel, info.device, None, msg.log_time_ns, value)
                 continue
-            drv = rep.driver(msg)
-            if drv is None:
+            dec = rep.decoder(msg)
+            if dec is None:
                 continue
-            raws = drv.framer.feed(msg.data)
-            if not raws:
+            out = dec.feed(msg.data, msg.log_time_ns)
+            if not out:  # the framer waits for more bytes: its frame is stamped with this time
                 pending[msg.channel] = msg.log_time_ns
-                continue
-            for s in drv.process(raws, msg.log_time_ns):
+            for s in out:
                 yield LogRecord(msg.channel, s.device, s.format, s.t_host_ns, s.record)
-        for channel, drv in rep.drivers.items():
-            rest = drv.framer.flush()
-            for s in drv.process(rest, pending.get(channel, 0)) if rest else []:
+        for channel, dec in rep.decoders.items():
+            for s in dec.flush(pending.get(channel, 0)):
                 yield LogRecord(channel, s.device, s.format, s.t_host_ns, s.record)
 
     def close(self) -> None:
