@@ -15,6 +15,7 @@ import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 from scipy.spatial.transform import Rotation
 
+from auvlink.pipeline.report_geo import ToGeodetic, add_geography
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.scoring import match
 from auvlink.pipeline.setup import TruthObject
@@ -64,13 +65,33 @@ def _det_hover(d: Detection, t0: float) -> str:
     n, e, z = d.position_ned
     return (f"<b>#{d.id} {d.class_name}</b> score {d.score:.2f}<br>north {n:.2f} m, east {e:.2f} m, "
             f"depth {z:.2f} m<br>{d.n_points} points, size {d.size[0]:.2f} x {d.size[1]:.2f} x {d.size[2]:.2f} m"
-            f"<br>seen t = {d.t_first - t0:.1f} .. {d.t_last - t0:.1f} s")
+            f"<br>seen t = {d.t_first - t0:.1f} .. {d.t_last - t0:.1f} s" + _latlon(d))
 
 
-def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None) -> go.Figure:
+def _latlon(d: Detection) -> str:
+    lat, lon = getattr(d, "latitude", None), getattr(d, "longitude", None)  # when geo-referenced
+    return f"<br>{lat:.6f} N, {lon:.6f} E" if lat is not None and lon is not None else ""
+
+
+def _bounds(result: MissionResult) -> tuple[float, float, float, float]:
+    """(east min, east max, north min, north max) of the track, detections and true objects, m."""
+    ne = [np.asarray(result.track, dtype=np.float64).reshape(-1, 3)[:, :2]]
+    ne += [np.array([d.position_ned[:2] for d in result.detections]).reshape(-1, 2),
+           np.array([t.position_ned[:2] for t in result.setup.truth]).reshape(-1, 2)]
+    pts = np.concatenate(ne)
+    if not len(pts):
+        return (-1.0, 1.0, -1.0, 1.0)
+    return (float(pts[:, 1].min()), float(pts[:, 1].max()), float(pts[:, 0].min()), float(pts[:, 0].max()))
+
+
+def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None,
+                      to_geodetic: ToGeodetic | None = None) -> go.Figure:
     """The survey map: navigation track, highlight points (decimated), detections (class, score on
-    hover; colour by class), true objects when known (missed ones crossed). East right, north up,
-    equal scale; zoom and pan with the mouse. Extended by geo-referencing (lat/lon) in one place: here."""
+    hover; colour by class), true objects when known (missed ones crossed), a scale bar; with the
+    geo-referencing (``result.georef``, ``result.track_info``, ``to_geodetic``: NED at the site datum ->
+    lat, lon, h) the GNSS fixes, the closure error and latitude/longitude axes
+    (:func:`auvlink.pipeline.report_geo.add_geography`). East right, north up, equal scale; zoom and
+    pan with the mouse. Everything the map shows is built here."""
     fig = go.Figure()
     hp = result.highlight_points
     if hp is not None and hp.size:
@@ -106,8 +127,12 @@ def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None) 
             marker={"size": 10, "color": class_colour(name),
                     "symbol": ["diamond" if i in false else "circle" for i in idx],
                     "line": {"width": 1, "color": "#000"}}))
-    fig.update_layout(title="Survey map (detections: circle; false detection: diamond)", height=620,
-                      margin={"l": 60, "r": 20, "t": 50, "b": 50}, legend={"itemsizing": "constant"},
+    georef: dict[str, Any] = getattr(result, "georef", None) or {}  # from the geo-referencing, when present
+    title = add_geography(fig, _bounds(result), georef, getattr(result, "track_info", None) or {}, to_geodetic)
+    geo_axes = bool(georef.get("georeferenced")) and to_geodetic is not None
+    fig.update_layout(title=f"{title}; detections: circle, false detections: diamond", height=660,
+                      margin={"l": 60, "r": 90 if geo_axes else 20, "t": 110 if geo_axes else 50, "b": 50},
+                      legend={"itemsizing": "constant", "x": 1.08 if geo_axes else 1.02},
                       xaxis={"title": "east [m]"},
                       yaxis={"title": "north [m]", "scaleanchor": "x", "scaleratio": 1},
                       hovermode="closest", template="plotly_white")
