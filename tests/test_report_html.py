@@ -82,8 +82,13 @@ def test_report_renders_in_headless_chromium(replayed: tuple[Path, dict[str, obj
               webgl_message: document.body.innerText.includes('WebGL is not supported'),
             };
         })()""")
+        first = doc["detections"][0]["id"]  # type: ignore[index]
+        hash_after_click = browser.evaluate(  # a click on a detection of the map goes to its object
+            f"document.getElementById('survey-map').emit('plotly_click', {{points: [{{customdata: {first}}}]}});"
+            " location.hash")
         errors = list(browser.console_errors)
     assert errors == [], errors
+    assert hash_after_click == f"#object-{first}-section"
     assert plots >= n_det + 2  # map, one per object, timings
     assert got["map"] >= 3 and got["map_svg"] >= 3, got  # highlight points, track, truth, detections
     assert [v[1] for v in got["views"]] == [2] * n_det, got["views"]  # points + reference mesh, both drawn
@@ -153,3 +158,16 @@ def test_demo_json_is_one_object(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert doc["counts"]["by_class"] == {"pipe": 1, "reef_c": 1} and doc["scores"]["detection_recall"] == 1.0
     assert doc["timings"]["simulation_s"] > 0 and Path(doc["outputs"]["report.html"]).is_file()
     assert "[1/2] simulating the mission" in captured.err  # the progress lines went to stderr
+
+
+def test_a_run_with_nothing_still_renders(tmp_path: Path) -> None:
+    import numpy as np
+
+    from auvlink.pipeline.report import write_report
+    from auvlink.pipeline.results import MissionResult
+    from auvlink.pipeline.setup import MissionSetup
+
+    empty = MissionResult(log=tmp_path / "gone.mcap", setup=MissionSetup(), detections=[], track=np.zeros((0, 3)))
+    html = write_report(empty, {}, tmp_path).read_text()
+    assert "No object was detected" in html and 'id="survey-map"' in html
+    assert "The log has no ground truth" in html and "No device statistics" in html

@@ -124,6 +124,7 @@ def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None,
         fig.add_trace(go.Scatter(
             x=[d.position_ned[1] for d in dets], y=[d.position_ned[0] for d in dets], mode="markers",
             name=f"detected {name}", hovertext=[_det_hover(d, result.t0) for d in dets], hoverinfo="text",
+            customdata=[d.id for d in dets],  # the page's click handler scrolls to the object's section
             marker={"size": 10, "color": class_colour(name),
                     "symbol": ["diamond" if i in false else "circle" for i in idx],
                     "line": {"width": 1, "color": "#000"}}))
