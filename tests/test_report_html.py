@@ -117,7 +117,7 @@ def test_report_names_false_and_missed_detections(replayed: tuple[Path, dict[str
     assert "reef_c at north 40.00 m, east 5.00 m" in missed.group(1) and missed.group(1).count("<li>") == 1
 
 
-def test_a_full_disk_gets_the_page_without_figures(replayed: tuple[Path, dict[str, object], Path],
+def test_a_full_disk_gets_the_live_page_without_figures(replayed: tuple[Path, dict[str, object], Path],
                                                    tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import errno
 
@@ -133,6 +133,9 @@ def test_a_full_disk_gets_the_page_without_figures(replayed: tuple[Path, dict[st
     _, _, log = replayed
     result = auvlink.replay(log, classify=False).result
     monkeypatch.setattr(report, "write_text", small_disk)
+    with pytest.raises(OSError, match="File too large"):  # replay: all or nothing, the command fails
+        report.write_report(result, {"scores": None}, tmp_path)
+    result.mode = "live"  # live writes what it can
     html = report.write_report(result, {"scores": None}, tmp_path).read_text()
     assert "Plotly" not in html and "interactive figures (map, 3D views, timings) are left out" in html
     assert "File too large" in html and 'id="detection-table"' in html and html.count("data:image/png") >= 2

@@ -132,14 +132,16 @@ def render_report(result: MissionResult, summary: dict[str, Any], *, figures: bo
 def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) -> Path:
     """Write ``out_dir/report.html`` (atomically: never a half report); returns its path.
 
-    The page is a few MB (plotly.js inline). When the disk cannot take it (full, or a file-size or
-    quota limit) the page is written again without the interactive figures (some 100 kB: tables,
-    the false and missed detections, sonar fans), saying so at its top; any other error raises."""
+    The page is a few MB (plotly.js inline). A live run writes what it can: when the disk cannot take
+    the page (full, or a file-size or quota limit) it is written again without the interactive figures
+    (some 100 kB: tables, the false and missed detections, sonar fans), saying so at its top. A replay's
+    folder is all or nothing (:func:`auvlink.atomic.atomic_dir`): there, as for any other error, the
+    OSError is raised."""
     path = out_dir / "report.html"
     try:
         return write_text(path, render_report(result, summary))
     except OSError as exc:
-        if exc.errno not in _FULL:
+        if exc.errno not in _FULL or result.mode != "live":
             raise
         note = (f"The interactive figures (map, 3D views, timings) are left out: the full page did not fit "
                 f"on the disk ({exc.strerror or exc}).")
