@@ -58,8 +58,8 @@ def _detection_rows(result: MissionResult, matched: figs.TruthMatch | None) -> l
                                               ("correct" if truth[j].class_name == d.class_name
                                                else f"true {truth[j].class_name}: misclassified"))
         rows.append({"id": d.id, "class": d.class_name, "score": d.score, "north": d.position_ned[0],
-                     "east": d.position_ned[1], "depth": d.position_ned[2], "length": max(d.size[:2]),
-                     "height": d.size[2], "n_points": d.n_points, "t_first": d.t_first - result.t0,
+                     "east": d.position_ned[1], "depth": d.position_ned[2],
+                     "size": " x ".join(f"{v:.2f}" for v in d.size), "n_points": d.n_points, "t_first": d.t_first - result.t0,
                      "t_last": d.t_last - result.t0, "truth": verdict, "distance_m": dist,
                      "ok": matched is None or verdict == "correct"})
     return rows
