@@ -87,3 +87,18 @@ def test_import_auvlink_stays_light() -> None:
             "if m in sys.modules]; print(heavy); auvlink.open_log; print('auvlink.api' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.split("\n")[:2] == ["[]", "True"], done.stdout
+
+
+def test_a_run_nobody_holds_stops(folder: Path) -> None:
+    import gc
+    import threading
+
+    import auvlink
+
+    run = auvlink.replay(folder / "mission.mcap", classify=False, buffer=1)
+    next(run)
+    thread = next(t for t in threading.enumerate() if t.name == "auvlink-replay")
+    del run
+    gc.collect()
+    thread.join(timeout=30)
+    assert not thread.is_alive()

@@ -20,48 +20,57 @@ class _Stopped(Exception):
     """Raised inside the pipeline thread when the consumer stopped iterating."""
 
 
+def _put(q: queue.Queue[tuple[str, Any]], stop: threading.Event, item: tuple[str, Any]) -> None:
+    """Hand ``item`` to the consumer, waiting while the queue is full; :class:`_Stopped` once stopped."""
+    while True:
+        if stop.is_set():
+            raise _Stopped
+        try:
+            q.put(item, timeout=0.1)
+            return
+        except queue.Full:
+            continue
+
+
+def _work(run: Callable[[Callable[[Detection], None]], MissionResult], q: queue.Queue[tuple[str, Any]],
+          stop: threading.Event) -> None:
+    """The pipeline thread: each detection, then the result (or the exception) onto ``q``."""
+    try:
+        result = run(lambda det: _put(q, stop, ("det", det)))
+    except _Stopped:
+        return
+    except BaseException as exc:  # handed to the consumer, raised there
+        try:
+            _put(q, stop, ("err", exc))
+        except _Stopped:
+            pass
+        return
+    try:
+        _put(q, stop, ("end", result))
+    except _Stopped:
+        pass
+
+
 class ReplayRun(Iterator["Detection"]):
     """A replay in progress: iterate for the :class:`~auvlink.pipeline.results.Detection` objects as the
     engine makes them (the engine runs in a thread and waits when the consumer is slower: at most
     ``buffer`` detections are held); :attr:`result` is the whole :class:`MissionResult` after the last.
 
-    Breaking out of the loop (or :meth:`close`) stops the engine.
+    To stop early call :meth:`close` (or use the run as a context manager): the engine stops at its
+    next detection (it has no other point to stop at) and its thread ends; a run no longer referenced
+    stops the same way.
     """
 
     def __init__(self, run: Callable[[Callable[[Detection], None]], MissionResult], buffer: int = 16) -> None:
         self._q: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize=buffer)
         self._stop = threading.Event()
         self._result: MissionResult | None = None
-        self._run = run
-        self._thread = threading.Thread(target=self._work, name="auvlink-replay", daemon=True)
+        # the thread holds the queue and the event, not this object: a run nobody holds is collected
+        # (``__del__`` then stops the engine)
+        self._thread = threading.Thread(target=_work, args=(run, self._q, self._stop), name="auvlink-replay",
+                                        daemon=True)
         self._done = False
         self._thread.start()
-
-    def _put(self, item: tuple[str, Any]) -> None:
-        while True:
-            if self._stop.is_set():
-                raise _Stopped
-            try:
-                self._q.put(item, timeout=0.1)
-                return
-            except queue.Full:
-                continue
-
-    def _work(self) -> None:
-        try:
-            result = self._run(lambda det: self._put(("det", det)))
-        except _Stopped:
-            return
-        except BaseException as exc:  # handed to the consumer, raised there
-            try:
-                self._put(("err", exc))
-            except _Stopped:
-                pass
-            return
-        try:
-            self._put(("end", result))
-        except _Stopped:
-            pass
 
     def __next__(self) -> Detection:
         if self._done:
