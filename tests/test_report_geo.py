@@ -40,7 +40,7 @@ def test_degree_axes_sit_where_the_degrees_are() -> None:
     arrow = next(a for a in lay.annotations if a.showarrow)
     assert (arrow.x, arrow.y, arrow.ax, arrow.ay) == (10.0, 50.0, 10.0 - 0.9, 50.0 - 1.2)
     bar = lay.shapes[0]
-    assert bar.x1 - bar.x0 == 10.0  # a 10 m scale bar on a map 50 m high
+    assert bar.x1 - bar.x0 == 10.0 and bar.x0 > 10.0  # a 10 m scale bar on a map 50 m high, beside it
 
 
 def test_without_gnss_the_map_says_positions_are_relative() -> None:

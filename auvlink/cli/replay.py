@@ -92,15 +92,13 @@ def scores_line(summary: dict[str, object]) -> str | None:
 def json_result(command: str, log: Path, out: Path, summary: dict[str, Any]) -> dict[str, Any]:
     """The ``--json`` object of ``replay`` and ``demo``: counts (detections per class), one short line
     per detection (id, class, score, position NED m, points), the scores against the truth (when the
-    log has it), the paths of the outputs and the timings (s)."""
+    log has it), the paths of the files in ``out`` by name and the timings (s)."""
     dets = [json.loads(line) for line in (out / "detections.jsonl").read_text().splitlines() if line.strip()]
     counts: dict[str, int] = {}
     for d in dets:
         counts[d["class"]] = counts.get(d["class"], 0) + 1
     scores, recon = summary.get("scores"), summary.get("recon")
-    outputs = {name: str(out / name) for name in ("detections.jsonl", "cloud.ply", "objects", "summary.json")}
-    if "report" in summary:
-        outputs["report.html"] = str(summary["report"])
+    outputs = {p.name: str(p) for p in sorted(out.iterdir()) if not p.name.startswith(".")}  # all DIR holds
     return {
         "command": command, "log": str(log), "out": str(out),
         "counts": {"detections": len(dets), "by_class": dict(sorted(counts.items())),

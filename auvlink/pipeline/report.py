@@ -19,8 +19,10 @@ import jinja2
 from plotly.offline import get_plotlyjs
 
 from auvlink.atomic import write_text
+from auvlink.geodesy import Datum
 from auvlink.pipeline import report_figures as figs
 from auvlink.pipeline.report_frames import detection_frames
+from auvlink.pipeline.report_geo import ToGeodetic
 from auvlink.pipeline.results import MissionResult
 from auvlink.version import __version__
 
@@ -58,10 +60,10 @@ def _detection_rows(result: MissionResult, matched: figs.TruthMatch | None) -> l
                                               ("correct" if truth[j].class_name == d.class_name
                                                else f"true {truth[j].class_name}: misclassified"))
         rows.append({"id": d.id, "class": d.class_name, "score": d.score, "north": d.position_ned[0],
-                     "east": d.position_ned[1], "depth": d.position_ned[2],
-                     "size": " x ".join(f"{v:.2f}" for v in d.size), "n_points": d.n_points, "t_first": d.t_first - result.t0,
-                     "t_last": d.t_last - result.t0, "truth": verdict, "distance_m": dist,
-                     "ok": matched is None or verdict == "correct"})
+                     "east": d.position_ned[1], "depth": d.position_ned[2], "lat": d.latitude, "lon": d.longitude,
+                     "size": " x ".join(f"{v:.2f}" for v in d.size), "n_points": d.n_points,
+                     "t_first": d.t_first - result.t0, "t_last": d.t_last - result.t0, "truth": verdict,
+                     "distance_m": dist, "ok": matched is None or verdict == "correct"})
     return rows
 
 
@@ -101,6 +103,12 @@ def _event_key(k: str) -> tuple[int, str]:
     return (first.index(k) if k in first else len(first), k)
 
 
+def _to_geodetic(result: MissionResult) -> ToGeodetic | None:
+    """NED at the run's site datum -> lat, lon, h (WGS84), when the run is geo-referenced."""
+    datum = Datum.from_dict(result.georef.get("datum")) if result.georef.get("georeferenced") else None
+    return datum.to_geodetic if datum is not None else None
+
+
 def render_report(result: MissionResult, summary: dict[str, Any], *, figures: bool = True, note: str = "") -> str:
     """The report page as one HTML string (see the module docstring). ``figures=False`` leaves out
     plotly.js and the interactive figures (the page of a full disk: tables, lists and sonar fans,
@@ -113,9 +121,11 @@ def render_report(result: MissionResult, summary: dict[str, Any], *, figures: bo
         "version": __version__, "mode": result.mode, "log": str(result.log),
         "written": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "plotlyjs": get_plotlyjs() if figures else "", "note": note,
-        "map": figs.to_div(figs.survey_map_figure(result, matched), "survey-map") if figures else None,
+        "map": figs.to_div(figs.survey_map_figure(result, matched, _to_geodetic(result)), "survey-map")
+        if figures else None,
         "detections": _detection_rows(result, matched),
-        "has_truth": bool(truth), "scores": _scalars(scores) if isinstance(scores, dict) else None,
+        "has_truth": bool(truth), "has_latlon": any(d.latitude is not None for d in result.detections),
+        "scores": _scalars(scores) if isinstance(scores, dict) else None,
         "false_detections": [r for r in _detection_rows(result, matched) if r["truth"] == "false detection"],
         "missed": [{"class": truth[j].class_name, "north": truth[j].position_ned[0],
                     "east": truth[j].position_ned[1], "heading": truth[j].heading_deg}

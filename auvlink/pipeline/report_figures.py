@@ -69,8 +69,8 @@ def _det_hover(d: Detection, t0: float) -> str:
 
 
 def _latlon(d: Detection) -> str:
-    lat, lon = getattr(d, "latitude", None), getattr(d, "longitude", None)  # when geo-referenced
-    return f"<br>{lat:.6f} N, {lon:.6f} E" if lat is not None and lon is not None else ""
+    lat, lon = d.latitude, d.longitude  # when geo-referenced
+    return f"<br>{lat:.6f} N, {lon:.6f} E (WGS84)" if lat is not None and lon is not None else ""
 
 
 def _bounds(result: MissionResult) -> tuple[float, float, float, float]:
@@ -110,7 +110,8 @@ def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None,
             if not objs:
                 continue
             fig.add_trace(go.Scatter(
-                x=[t.position_ned[1] for t in objs], y=[t.position_ned[0] for t in objs], mode="markers+text",
+                x=[t.position_ned[1] for t in objs], y=[t.position_ned[0] for t in objs],
+                mode="markers+text" if keep else "markers",  # names on the missed only: no crowded labels
                 name=label, text=[t.class_name for t in objs], textposition="bottom center",
                 textfont={"size": 10, "color": "#2ca02c" if not keep else "#000"},
                 marker={"symbol": symbol, "size": 16, "color": "#2ca02c" if not keep else "#000",
@@ -128,12 +129,12 @@ def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None,
             marker={"size": 10, "color": class_colour(name),
                     "symbol": ["diamond" if i in false else "circle" for i in idx],
                     "line": {"width": 1, "color": "#000"}}))
-    georef: dict[str, Any] = getattr(result, "georef", None) or {}  # from the geo-referencing, when present
-    title = add_geography(fig, _bounds(result), georef, getattr(result, "track_info", None) or {}, to_geodetic)
+    georef = result.georef
+    title = add_geography(fig, _bounds(result), georef, result.track_info, to_geodetic)
     geo_axes = bool(georef.get("georeferenced")) and to_geodetic is not None
     fig.update_layout(title=f"{title}; detections: circle, false detections: diamond", height=660,
                       margin={"l": 60, "r": 90 if geo_axes else 20, "t": 110 if geo_axes else 50, "b": 50},
-                      legend={"itemsizing": "constant", "x": 1.08 if geo_axes else 1.02},
+                      legend={"itemsizing": "constant", "x": 1.13 if geo_axes else 1.02},
                       xaxis={"title": "east [m]"},
                       yaxis={"title": "north [m]", "scaleanchor": "x", "scaleratio": 1},
                       hovermode="closest", template="plotly_white")

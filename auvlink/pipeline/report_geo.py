@@ -61,9 +61,10 @@ def add_geography(fig: go.Figure, bounds: tuple[float, float, float, float], geo
                                  name=f"closure error {float(georef.get('closure_m', 0.0)):.2f} m"))
     e0, e1, n0, n1 = bounds
     bar = nice_length(max(e1 - e0, n1 - n0) / 5.0)  # the map is at least as wide as it is high
-    fig.add_shape(type="line", x0=e1 - bar, x1=e1, y0=n0, y1=n0, xref="x", yref="y",
+    x0 = e1 + 0.1 * max(e1 - e0, n1 - n0)  # right of the data, at its south end: it covers nothing
+    fig.add_shape(type="line", x0=x0, x1=x0 + bar, y0=n0, y1=n0, xref="x", yref="y",
                   line={"color": "#000", "width": 3})
-    fig.add_annotation(x=e1 - bar / 2, y=n0, text=f"{bar:g} m", showarrow=False, yshift=10, xref="x", yref="y")
+    fig.add_annotation(x=x0 + bar / 2, y=n0, text=f"{bar:g} m", showarrow=False, yshift=10, xref="x", yref="y")
     if not georef.get("georeferenced") or to_geodetic is None:
         return "Survey map: positions relative to the first navigation sample (no GNSS fix)"
     c = np.array([(n0 + n1) / 2, (e0 + e1) / 2, 0.0])
