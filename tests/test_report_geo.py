@@ -47,3 +47,15 @@ def test_without_gnss_the_map_says_positions_are_relative() -> None:
     fig = go.Figure()
     title = add_geography(fig, (0.0, 40.0, 0.0, 40.0), {}, {}, None)
     assert "relative to the first navigation sample" in title and "xaxis2" not in fig.layout.to_plotly_json()
+
+
+def test_the_object_in_the_fan_golden() -> None:
+    from auvlink.pipeline.report_frames import object_in_fan
+    from auvlink.pipeline.results import Detection
+
+    det = Detection(0, "box", 0.9, (8.0, 1.0, 20.0), (1.2, 0.8, 0.6), 10, 0.0, 1.0, np.zeros((10, 3)))
+    x, y = object_in_fan(det, (0.0, 0.0, 15.0, 0.0))  # heading north: 8 m ahead, 1 m to starboard, 5 m below
+    assert np.allclose((x, y), (1.0, np.sqrt(89.0)))  # x = starboard; y = the rest of the 9.487 m slant range
+    det.position_ned = (1.0, 8.0, 20.0)
+    x, y = object_in_fan(det, (0.0, 0.0, 15.0, np.pi / 2))  # heading east: 1 m north is to port
+    assert np.allclose((x, y), (-1.0, np.sqrt(89.0)))

@@ -63,6 +63,7 @@ def test_report_renders_in_headless_chromium(replayed: tuple[Path, dict[str, obj
     # self-contained: no script or stylesheet from the network, plotly.js inline once
     assert not re.search(r"<script[^>]+src=|<link[^>]+href=\"?https?:", html)
     assert html.count("Plotly.newPlot(") >= 4 and len(html) < 8_000_000
+    assert html.count("ring: the object") >= 2  # the fans show where the object is
     n_det = doc["counts"]["detections"]  # type: ignore[index]
     with HeadlessChromium(binary) as browser:
         browser.open(page)

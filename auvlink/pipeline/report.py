@@ -70,7 +70,7 @@ def _detection_rows(result: MissionResult, matched: figs.TruthMatch | None) -> l
 def _objects(result: MissionResult, matched: figs.TruthMatch | None, figures: bool) -> list[dict[str, Any]]:
     order = sorted(range(len(result.detections)), key=lambda i: -result.detections[i].n_points)
     keep = sorted(order[:MAX_OBJECT_VIEWS])
-    frames = detection_frames(result.log, [result.detections[i] for i in keep])
+    frames = detection_frames(result.log, [result.detections[i] for i in keep], track=result.track_info)
     out = []
     for i in keep:
         d = result.detections[i]
@@ -79,7 +79,7 @@ def _objects(result: MissionResult, matched: figs.TruthMatch | None, figures: bo
         out.append({"id": d.id, "class": d.class_name, "score": d.score, "n_points": d.n_points,
                     "truth": truth.class_name if truth else None,
                     "view": figs.to_div(figs.object_figure(d, truth), f"object-{d.id}") if figures else None,
-                    "frames": [{"t": f.t - result.t0, "png": f.png_b64, "range": f.range_m}
+                    "frames": [{"t": f.t - result.t0, "png": f.png_b64, "range": f.range_m, "ringed": f.ringed}
                                for f in frames.get(d.id, [])]})
     return out
 
