@@ -67,6 +67,15 @@ def _detection_rows(result: MissionResult, matched: figs.TruthMatch | None) -> l
     return rows
 
 
+def _missed(result: MissionResult, matched: figs.TruthMatch | None) -> list[dict[str, Any]]:
+    """The true objects no detection matched: class, north, east (m, the detections' frame), heading."""
+    if matched is None:
+        return []
+    truth = result.setup.truth
+    return [{"class": truth[j].class_name, "north": float(matched.truth_ne[j, 0]),
+             "east": float(matched.truth_ne[j, 1]), "heading": truth[j].heading_deg} for j in matched.missed]
+
+
 def _objects(result: MissionResult, matched: figs.TruthMatch | None, figures: bool) -> list[dict[str, Any]]:
     order = sorted(range(len(result.detections)), key=lambda i: -result.detections[i].n_points)
     keep = sorted(order[:MAX_OBJECT_VIEWS])
@@ -127,9 +136,7 @@ def render_report(result: MissionResult, summary: dict[str, Any], *, figures: bo
         "has_truth": bool(truth), "has_latlon": any(d.latitude is not None for d in result.detections),
         "scores": _scalars(scores) if isinstance(scores, dict) else None,
         "false_detections": [r for r in _detection_rows(result, matched) if r["truth"] == "false detection"],
-        "missed": [{"class": truth[j].class_name, "north": truth[j].position_ned[0],
-                    "east": truth[j].position_ned[1], "heading": truth[j].heading_deg}
-                   for j in (matched.missed if matched else [])],
+        "missed": _missed(result, matched),
         "radius_m": matched.radius_m if matched else None,
         "objects": _objects(result, matched, figures), "n_objects": len(result.detections),
         "timing": figs.to_div(timing, "timings") if timing is not None else None,

@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from auvlink.pipeline.report_geo import ToGeodetic, add_geography
 from auvlink.pipeline.results import Detection, MissionResult
-from auvlink.pipeline.scoring import match
+from auvlink.pipeline.scoring import match, truth_in_result_frame
 from auvlink.pipeline.setup import TruthObject
 from auvlink.sim.catalog import CLASSES, mesh_for
 
@@ -36,6 +36,7 @@ class TruthMatch:
     """Detections against the truth (indices into ``result.detections`` / ``result.setup.truth``)."""
 
     pairs: list[tuple[int, int, float]]  # (detection, truth, horizontal distance m)
+    truth_ne: np.ndarray  # (n, 2) the true objects' north, east in the detections' frame, m
     false: list[int]  # detections matching no true object
     missed: list[int]  # true objects no detection matched
     radius_m: float
@@ -50,10 +51,10 @@ def truth_match(result: MissionResult, radius: float = 1.0) -> TruthMatch | None
     if not truth:
         return None
     det_xy = np.array([d.position_ned[:2] for d in result.detections]).reshape(-1, 2)
-    truth_xy = np.array([t.position_ned[:2] for t in truth]).reshape(-1, 2)
+    truth_xy = truth_in_result_frame(result)  # through the run's datum when geo-referenced, as the scores
     pairs = match(det_xy, truth_xy, radius)
     got_d, got_t = {p[0] for p in pairs}, {p[1] for p in pairs}
-    return TruthMatch(pairs, [i for i in range(len(result.detections)) if i not in got_d],
+    return TruthMatch(pairs, truth_xy, [i for i in range(len(result.detections)) if i not in got_d],
                       [j for j in range(len(truth)) if j not in got_t], radius)
 
 
@@ -73,11 +74,10 @@ def _latlon(d: Detection) -> str:
     return f"<br>{lat:.6f} N, {lon:.6f} E (WGS84)" if lat is not None and lon is not None else ""
 
 
-def _bounds(result: MissionResult) -> tuple[float, float, float, float]:
+def _bounds(result: MissionResult, truth_ne: np.ndarray) -> tuple[float, float, float, float]:
     """(east min, east max, north min, north max) of the track, detections and true objects, m."""
     ne = [np.asarray(result.track, dtype=np.float64).reshape(-1, 3)[:, :2]]
-    ne += [np.array([d.position_ned[:2] for d in result.detections]).reshape(-1, 2),
-           np.array([t.position_ned[:2] for t in result.setup.truth]).reshape(-1, 2)]
+    ne += [np.array([d.position_ned[:2] for d in result.detections]).reshape(-1, 2), truth_ne.reshape(-1, 2)]
     pts = np.concatenate(ne)
     if not len(pts):
         return (-1.0, 1.0, -1.0, 1.0)
@@ -103,21 +103,24 @@ def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None,
                                  name="navigation (dead reckoning)", line={"color": "#555", "width": 1.5},
                                  hovertemplate="north %{y:.1f} m<br>east %{x:.1f} m<extra>track</extra>"))
     truth = result.setup.truth
+    truth_ne = matched.truth_ne if matched is not None else truth_in_result_frame(result)
     if truth:
         missed = set(matched.missed) if matched else set()
         for label, keep, symbol in (("true objects", False, "square-open"), ("missed objects", True, "x-thin-open")):
-            objs = [t for j, t in enumerate(truth) if (j in missed) == keep]
-            if not objs:
+            idx = [j for j in range(len(truth)) if (j in missed) == keep]
+            if not idx:
                 continue
+            objs, ne = [truth[j] for j in idx], truth_ne[idx]
             fig.add_trace(go.Scatter(
-                x=[t.position_ned[1] for t in objs], y=[t.position_ned[0] for t in objs],
+                x=ne[:, 1], y=ne[:, 0],
                 mode="markers+text" if keep else "markers",  # names on the missed only: no crowded labels
                 name=label, text=[t.class_name for t in objs], textposition="bottom center",
                 textfont={"size": 10, "color": "#2ca02c" if not keep else "#000"},
                 marker={"symbol": symbol, "size": 16, "color": "#2ca02c" if not keep else "#000",
                         "line": {"width": 2}},
-                hovertext=[f"true {t.class_name}<br>north {t.position_ned[0]:.2f} m, east {t.position_ned[1]:.2f} m"
-                           f"<br>heading {t.heading_deg:.0f} deg" for t in objs], hoverinfo="text"))
+                hovertext=[f"true {t.class_name}<br>north {p[0]:.2f} m, east {p[1]:.2f} m"
+                           f"<br>heading {t.heading_deg:.0f} deg" for t, p in zip(objs, ne, strict=True)],
+                hoverinfo="text"))
     false = set(matched.false) if matched else set()
     for name in sorted({d.class_name for d in result.detections}):
         idx = [i for i, d in enumerate(result.detections) if d.class_name == name]
@@ -130,7 +133,7 @@ def survey_map_figure(result: MissionResult, matched: TruthMatch | None = None,
                     "symbol": ["diamond" if i in false else "circle" for i in idx],
                     "line": {"width": 1, "color": "#000"}}))
     georef = result.georef
-    title = add_geography(fig, _bounds(result), georef, result.track_info, to_geodetic)
+    title = add_geography(fig, _bounds(result, truth_ne), georef, result.track_info, to_geodetic)
     geo_axes = bool(georef.get("georeferenced")) and to_geodetic is not None
     fig.update_layout(title=f"{title}; detections: circle, false detections: diamond", height=660,
                       margin={"l": 60, "r": 90 if geo_axes else 20, "t": 110 if geo_axes else 50, "b": 50},
