@@ -81,6 +81,7 @@ def test_report_renders_in_headless_chromium(replayed: tuple[Path, dict[str, obj
               rows: q('#detection-table tr').length,
               fans: q('.frames img').filter(i => i.complete && i.naturalWidth > 0).length,
               webgl_message: document.body.innerText.includes('WebGL is not supported'),
+              duplicate_ids: (ids => ids.length - new Set(ids).size)(q('[id]').map(e => e.id)),
             };
         })()""")
         first = doc["detections"][0]["id"]  # type: ignore[index]
@@ -94,7 +95,7 @@ def test_report_renders_in_headless_chromium(replayed: tuple[Path, dict[str, obj
     assert got["map"] >= 3 and got["map_svg"] >= 3, got  # highlight points, track, truth, detections
     assert [v[1] for v in got["views"]] == [2] * n_det, got["views"]  # points + reference mesh, both drawn
     assert sorted(v[0] for v in got["views"]) == sorted(f"object-{d['id']}" for d in doc["detections"])  # type: ignore[union-attr]
-    assert got["rows"] == n_det + 1 and not got["webgl_message"], got
+    assert got["rows"] == n_det + 1 and not got["webgl_message"] and got["duplicate_ids"] == 0, got
     assert got["fans"] >= n_det, got  # the sonar frames that saw each object, decoded by the browser
 
 

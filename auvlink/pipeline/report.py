@@ -139,7 +139,7 @@ def render_report(result: MissionResult, summary: dict[str, Any], *, figures: bo
         "missed": _missed(result, matched),
         "radius_m": matched.radius_m if matched else None,
         "objects": _objects(result, matched, figures), "n_objects": len(result.detections),
-        "timing": figs.to_div(timing, "timings") if timing is not None else None,
+        "timing": figs.to_div(timing, "timings-figure") if timing is not None else None,
         "timings": result.timings, "latency": result.latency,
         "health": _health(result, summary),
     }
