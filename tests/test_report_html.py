@@ -81,7 +81,9 @@ def test_report_renders_in_headless_chromium(replayed: tuple[Path, dict[str, obj
               rows: q('#detection-table tr').length,
               fans: q('.frames img').filter(i => i.complete && i.naturalWidth > 0).length,
               webgl_message: document.body.innerText.includes('WebGL is not supported'),
-              duplicate_ids: (ids => ids.length - new Set(ids).size)(q('[id]').map(e => e.id)),
+              duplicate_ids: (ids => ids.length - new Set(ids).size)(  // the page's own (plotly's inner ones aside)
+                  q('[id]').filter(e => e.classList.contains('js-plotly-plot') || !e.closest('.js-plotly-plot'))
+                           .map(e => e.id)),
             };
         })()""")
         first = doc["detections"][0]["id"]  # type: ignore[index]
