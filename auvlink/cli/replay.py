@@ -6,17 +6,22 @@ navigation, reconstruction, clustering and classification. DIR receives ``detect
 want z up), ``results.mcap`` (Foxglove schemas: docs/VIEWER.md), ``summary.json`` and ``report.html``.
 DIR is checked before any work (new or empty unless ``--force``, writable) and filled in a temporary
 folder renamed when whole (:func:`auvlink.atomic.atomic_dir`).
+``--json``: one JSON object on stdout at the end (:func:`json_result`), nothing else there (progress and
+warnings go to stderr).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+from typing import Any
 
 from auvlink.atomic import atomic_dir, check_output_dir
 from auvlink.config import load_config
 from auvlink.errors import AuvlinkError
+from auvlink.jsonutil import dumps
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -30,6 +35,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-classify", action="store_true", help="stop after clustering")
     p.add_argument("--no-report", action="store_true", help="skip report.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (counts, detections, outputs, timings) on stdout, nothing else")
     p.add_argument("--config", type=Path, default=None,
                    help="vehicle configuration (TOML) to use instead of the one the log stores")
     p.add_argument("--ply-frame", choices=("ned", "zup"), default="ned",
@@ -86,6 +93,29 @@ def scores_line(summary: dict[str, object]) -> str | None:
             f"classification P/R {s['classification_precision']:.2f}/{s['classification_recall']:.2f}")
 
 
+def json_result(command: str, log: Path, out: Path, summary: dict[str, Any]) -> dict[str, Any]:
+    """The ``--json`` object of ``replay`` and ``demo``: counts (detections per class), one short line
+    per detection (id, class, score, position NED m, points), the scores against the truth (when the
+    log has it), the paths of the files in ``out`` by name and the timings (s)."""
+    dets = [json.loads(line) for line in (out / "detections.jsonl").read_text().splitlines() if line.strip()]
+    counts: dict[str, int] = {}
+    for d in dets:
+        counts[d["class"]] = counts.get(d["class"], 0) + 1
+    scores, recon = summary.get("scores"), summary.get("recon")
+    outputs = {p.name: str(p) for p in sorted(out.iterdir()) if not p.name.startswith(".")}  # all DIR holds
+    return {
+        "command": command, "log": str(log), "out": str(out),
+        "counts": {"detections": len(dets), "by_class": dict(sorted(counts.items())),
+                   "sonar_frames": recon.get("frames_processed") if isinstance(recon, dict) else None},
+        "detections": [{k: d[k] for k in ("id", "class", "score", "position_ned", "size", "n_points")} for d in dets],
+        "scores": {k: v for k, v in scores.items() if not isinstance(v, list | dict)} if isinstance(scores, dict)
+        else None,
+        "outputs": outputs,
+        "timings": summary.get("timings"),
+        "log_loss": summary.get("log_loss") or {"state": "complete"},  # the log's loss report (JSON)
+    }
+
+
 def loss_line(log: Path, summary: dict[str, object]) -> str | None:
     """One line when the log was damaged or cut off (what was lost, in seconds and messages), else None."""
     loss = summary.get("log_loss")
@@ -103,6 +133,9 @@ def run(args: argparse.Namespace) -> int:
     line = loss_line(args.log, summary)
     if line:
         print(line, file=sys.stderr)
+    if args.json:
+        sys.stdout.write(dumps(json_result("replay", args.log, args.out, summary)) + "\n")
+        return 0
     print(f"{summary['detections']} objects -> {args.out / 'detections.jsonl'}")
     line = engine_line(summary)
     if line and not args.quiet:
