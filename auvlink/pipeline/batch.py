@@ -148,7 +148,7 @@ def open_client(workers: int, scheduler: str | None) -> tuple[Any, Any, str]:
 
     if scheduler:
         try:
-            client = Client(scheduler, timeout="20s")
+            client = Client(scheduler)  # waits up to distributed.comm.timeouts.connect (30 s by default)
         except (OSError, TimeoutError) as exc:
             raise AuvlinkError(f"--scheduler {scheduler}: cannot connect ({exc}); is a dask scheduler running "
                                "there? (dask scheduler --host HOST --port 8786)") from exc

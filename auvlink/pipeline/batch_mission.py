@@ -150,6 +150,8 @@ def process_mission(task: MissionTask, digest: str) -> dict[str, Any]:
     t0 = time.perf_counter()
     with MissionLogReader(log) as reader:
         start_ns, end_ns = reader.start_ns, reader.end_ns
+        if start_ns is None:  # replay would give an empty mission: in a batch that is a failed log
+            raise AuvlinkError(f"{log}: no readable message ({reader.loss.describe()})")
     vehicle = load_config(Path(task.config)) if task.config is not None else None
     model = Path(task.model) if task.model is not None else None
     result = run_log(log, model=model, classify=task.classify, progress=False, config=vehicle)
