@@ -13,8 +13,9 @@ All positions are brought into one horizontal frame (north, east in m; see :func
 detections are matched one-to-one to the objects found so far by a minimum-cost assignment
 (:func:`scipy.optimize.linear_sum_assignment`) on the horizontal distance, gated at ``radius`` m
 (:data:`MERGE_RADIUS_M`, default 1.5 m: the objects are 1-3 m across, dead reckoning drifts by about
-1 m, and separate objects of a site lie farther apart), plus ``class_penalty`` m when the classes differ
-(so that a detection goes to the object of its own class when two are in reach). A detection left
+1 m, and separate objects of a site lie farther apart), plus ``class_penalty`` m (0.5 m) when the
+detection's class differs from the object's (so a detection goes to the object of its own class when two
+are in reach, and one of another class merges only within ``radius - class_penalty``, 1.0 m). A detection left
 unmatched starts a new object. An object's position is the mean of its sightings; its spread the RMS
 and the largest distance of the sightings from that mean; its class the majority of its class votes
 (ties: the higher summed score).
@@ -193,7 +194,7 @@ def merge(sightings_by_mission: list[list[Sighting]], radius: float = MERGE_RADI
             det = np.array([[s.north, s.east] for s in sightings])
             dist = np.hypot(det[:, None, 0] - pos[None, :, 0], det[:, None, 1] - pos[None, :, 1])
             cost = dist + class_penalty * np.array([[s.class_name != c for c in cls] for s in sightings])
-            cost[dist > radius] = big
+            cost[cost > radius] = big  # another class: within radius - class_penalty only
             rows, cols = linear_sum_assignment(cost)
             pairs = {int(r): int(c) for r, c in zip(rows, cols, strict=True) if cost[r, c] < big}
         else:
