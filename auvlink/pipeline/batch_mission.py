@@ -118,6 +118,11 @@ def run_mission(task: MissionTask) -> Outcome:
 
 
 def _run(task: MissionTask, out: Outcome) -> None:
+    from auvlink import __version__
+
+    if task.settings.get("auvlink") != __version__:
+        raise AuvlinkError(f"this worker has auvlink {__version__}, the client {task.settings.get('auvlink')}; "
+                           "install the same version on the workers")
     log, folder = Path(task.log), Path(task.out)
     if not log.is_file():
         raise AuvlinkError(f"{log}: no such log")
