@@ -21,6 +21,7 @@ demo: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check auvlink logs_format recon classify tests benchmarks
+	$(BIN)/lint-imports  # the layers and no import cycle (contracts in .importlinter)
 
 typecheck: $(STAMP)
 	$(BIN)/mypy

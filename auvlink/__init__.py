@@ -1,3 +1,5 @@
 """auvlink: sensor drivers, wire formats and transports for an AUV with a forward-scan imaging sonar."""
 
-__version__ = "0.1.0"
+from auvlink.version import __version__
+
+__all__ = ["__version__"]

@@ -16,6 +16,8 @@ from auvlink.errors import AuvlinkError
 from auvlink.formats import WireFormat
 
 CHUNK = 1 << 20
+#: problem lines kept per file; the rest are counted (``problems_left_out``) so memory stays bounded
+MAX_PROBLEMS = 1000
 
 
 @dataclass
@@ -30,6 +32,8 @@ class DecodeResult:
     t_first: float | None = None
     t_last: float | None = None
     problems: list[str] = field(default_factory=list)
+    #: problems beyond :data:`MAX_PROBLEMS` (counted, not kept; ``problems[-1]`` is always the latest)
+    problems_left_out: int = 0
 
     def reason(self) -> str:
         if self.file_bytes == 0:
@@ -38,27 +42,38 @@ class DecodeResult:
             return f"{self.decode_errors} frames failed to decode; last: {self.problems[-1]}"
         return f"no {self.format} frame found in {self.file_bytes} bytes"
 
+    def losses(self) -> dict[str, int]:
+        """What was skipped, by kind: ``skipped_bytes`` outside any whole frame (garbage, damaged frames;
+        the truncated tail excluded), ``bad_checksums`` (frames), ``truncated_frames`` and
+        ``truncated_tail_bytes`` (the partial frame the file ends in)."""
+        fr = self.framer
+        tail = fr.get("truncated_bytes", 0)
+        return {"skipped_bytes": fr.get("dropped_bytes", 0) - tail, "bad_checksums": fr.get("bad_checksums", 0),
+                "truncated_frames": fr.get("truncated", 0), "truncated_tail_bytes": tail}
+
     def summary(self) -> dict[str, Any]:
         return {
             "format": self.format,
             "file_bytes": self.file_bytes,
             "records": self.records,
             "decode_errors": self.decode_errors,
+            "losses": self.losses(),
             "framer": self.framer,
             "t_first": _iso(self.t_first),
             "t_last": _iso(self.t_last),
-            "problems": len(self.problems),
+            "problems": len(self.problems) + self.problems_left_out,
         }
 
     def human_summary(self) -> str:
-        fr = self.framer
+        lo = self.losses()
         lines = [
             f"format      {self.format}",
             f"bytes       {self.file_bytes}",
             f"records     {self.records}",
             f"time span   {_iso(self.t_first) or '-'} .. {_iso(self.t_last) or '-'}",
-            f"bad         {self.decode_errors} undecodable frames, {fr.get('bad_checksums', 0)} bad "
-            f"checksums, {fr.get('truncated', 0)} truncated, {fr.get('dropped_bytes', 0)} bytes dropped",
+            f"bad         {self.decode_errors} undecodable frames, {lo['bad_checksums']} bad checksums, "
+            f"{lo['skipped_bytes']} bytes skipped outside frames, "
+            f"truncated tail {lo['truncated_tail_bytes']} bytes",
         ]
         return "\n".join(lines)
 
@@ -89,13 +104,18 @@ def decode_bytes(data: bytes, fmt: WireFormat, emit: Callable[[Any], None]) -> D
         index = _decode_frames(result, fmt, raw_frames, emit, index)
     index = _decode_frames(result, fmt, framer.flush(), emit, index)
     result.framer = framer.stats.as_dict()
-    st = framer.stats
-    if st.bad_checksums:
-        result.problems.append(f"{st.bad_checksums} frames with a bad checksum were skipped")
-    if st.truncated:
-        result.problems.append(f"{st.truncated} truncated frame(s) at the end ({st.dropped_bytes} bytes)")
-    elif st.dropped_bytes:
-        result.problems.append(f"{st.dropped_bytes} bytes outside any frame were skipped")
+    lo = result.losses()
+    if lo["bad_checksums"]:
+        result.problems.append(f"{lo['bad_checksums']} frame(s) with a bad checksum were skipped")
+    if lo["skipped_bytes"]:
+        result.problems.append(f"{lo['skipped_bytes']} bytes outside any whole frame were skipped "
+                               "(garbage, or the bytes of damaged frames)")
+    cut_inside = lo["truncated_frames"] - (1 if lo["truncated_tail_bytes"] else 0)
+    if cut_inside > 0:
+        result.problems.append(f"{cut_inside} frame(s) cut short by the next frame")
+    if lo["truncated_tail_bytes"]:
+        result.problems.append(f"the file ends inside a frame: a truncated frame of "
+                               f"{lo['truncated_tail_bytes']} bytes at the end")
     return result
 
 
@@ -107,7 +127,11 @@ def _decode_frames(
             record = fmt.decode(raw)
         except (AuvlinkError, ValueError) as exc:
             result.decode_errors += 1
-            result.problems.append(f"frame {index}: {exc}")
+            if len(result.problems) < MAX_PROBLEMS:
+                result.problems.append(f"frame {index}: {exc}")
+            else:  # a file of a million bad frames must not hold a million strings
+                result.problems[-1] = f"frame {index}: {exc}"
+                result.problems_left_out += 1
         else:
             _take(result, fmt, record, emit)
         index += 1

@@ -3,7 +3,7 @@
 A real USB-CAN adapter (CANable, CANtact, Lawicel CANUSB) shows up as a serial port; the host
 talks to it in short ASCII commands ending in CR and gets CR (ok) or BEL (error) back, and every
 bus frame arrives as a ``t``/``T`` line. :class:`SlcanAdapter` plays that adapter on the master
-side of a :class:`~auvlink.virtual.PtyPair`, and is itself a python-can bus: the process that owns
+side of a :class:`~auvlink.virtual_pty.PtyPair`, and is itself a python-can bus: the process that owns
 it is a CAN node (it ``send``\\ s frames the host will receive, and ``recv``\\ s what the host
 transmits), while the host opens ``can://slcan/<device_path>`` exactly as it would a real adapter.
 
@@ -27,7 +27,7 @@ import can
 from can.util import CAN_FD_DLC, len2dlc
 
 from auvlink.errors import DecodeError, TransportError, TransportTimeoutError
-from auvlink.virtual import PtyPair
+from auvlink.virtual_pty import PtyPair
 
 OK, ERROR = b"\r", b"\a"
 #: Sn -> bit rate (python-can's table; S9 is its 83.3 kbit/s extension)

@@ -1,6 +1,6 @@
 """The simulated-mission parts of the recon stage: accuracy, the knobs against error, the 7-object scenes, nav.
 
-Every mission here is rendered by the simulator (:mod:`recon.simeval`) and scored against its ground
+Every mission here is rendered by the simulator (:mod:`auvlink.evaluation.simeval`) and scored against its ground
 truth with the true navigation (except :func:`nav`, which replays a simulated log through the codecs).
 
 - :func:`accuracy`: the demo scene (8 objects, 5 m altitude, 30 deg tilt): mean and 95th-percentile
@@ -27,10 +27,19 @@ from typing import Any
 import numpy as np
 from _common import best_time, smoke
 
+from auvlink.evaluation.simeval import (
+    SimFrames,
+    cluster_errors,
+    evaluate,
+    nav_drift,
+    object_points,
+    reconstruct,
+    simulate,
+)
+from auvlink.pipeline.engine import default_recon_config
 from recon.cluster import ClusterConfig, cluster
 from recon.highlight import extract
 from recon.pipeline import ReconConfig
-from recon.simeval import SimFrames, cluster_errors, evaluate, object_points, reconstruct, simulate
 
 SCENE_OBJECTS = [("sphere", 8.0, 0.5), ("box", 16.0, -0.6), ("reef_a", 25.0, 0.3), ("pipe", 34.0, -0.4),
                  ("hemisphere", 12.0, 3.0), ("half_pipe", 22.0, 4.2), ("reef_c", 31.0, 3.4)]
@@ -48,12 +57,7 @@ def scene_text(slope_deg: float) -> str:
 
 
 def pipeline_config() -> ReconConfig:
-    try:
-        from auvlink.pipeline.process import default_recon_config
-    except ImportError:
-        return ReconConfig()
-    cfg = default_recon_config()
-    return cfg if isinstance(cfg, ReconConfig) else ReconConfig()
+    return default_recon_config()
 
 
 def demo_frames() -> SimFrames:
@@ -220,7 +224,6 @@ def nav(quick: bool) -> dict[str, Any]:
     with the default sensor noise and with it off, and one straight 1 km line with the noise off (what is
     left is the wire's resolution: PD0 velocity in mm/s, heading in 0.01 deg)."""
     from auvlink.sim.scene import loads_scene
-    from recon.simeval import nav_drift
 
     text = NAV_SCENE.replace("lines = 4", "lines = 1") if smoke() else NAV_SCENE
     straight = NAV_SCENE.replace("line_length = 250.0", "line_length = 1000.0").replace("lines = 4", "lines = 1")

@@ -11,7 +11,7 @@ Run: ``auvlink bench classify --out DIR`` (or ``python benchmarks/bench_classify
   missing (points beyond a random vertical plane removed, 0-50 %: a pass that saw part of the
   object's footprint).
 * Accuracy on clouds that recon reconstructs from simulated passes over single objects
-  (:mod:`classify.recon_eval`; other seeds, headings, tilts, altitudes and lateral offsets than any
+  (:mod:`auvlink.evaluation.recon_eval`; other seeds, headings, tilts, altitudes and lateral offsets than any
   training draw; cached under the cache folder, keyed by the source of the simulator and recon):
   per-class precision and recall, the look-alike confusions. Quick: 3 headings x 1 tilt x 2
   altitudes; ``--full``: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets.
@@ -124,7 +124,7 @@ def _baseline2d(clf: Classifier, quick: bool, cache: Path) -> dict[str, Any]:
 
 def _recon(clf: Classifier, clouds: list[Any]) -> dict[str, Any]:
     """Precision, recall and the look-alike confusions on clouds recon reconstructed."""
-    from classify.recon_eval import evaluate_recon
+    from auvlink.evaluation.recon_eval import evaluate_recon
 
     rep, missed = evaluate_recon(clf, clouds)
     sizes = [len(c.points) for c in clouds if len(c.points) >= 8]
@@ -215,7 +215,7 @@ def run(quick: bool, out_dir: Path) -> dict[str, Any]:
         result["robustness"] = rob
     result["peers"] = _peers(timing, clf.model.cfg.width, clf.n_points)
     if DEFAULT_MODEL.is_file() and not smoke():
-        from classify.recon_eval import reconstruct_set, standard_passes
+        from auvlink.evaluation.recon_eval import reconstruct_set, standard_passes
 
         clouds = reconstruct_set(clf.class_names, standard_passes(quick), cache_dir=cache)
         rec = _recon(clf, clouds)

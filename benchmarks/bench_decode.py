@@ -6,10 +6,18 @@ codec, per frame and through the bulk (vectorized) path; dolfyn reads the same f
 ``peers`` (docs/HELPERS.md contract): seconds per read of the whole file, ours (per-frame codec, bulk)
 against dolfyn, ``ratio = dolfyn / ours``. Smoke mode (``AUVLINK_BENCH_SMOKE=1``): one repeat each,
 fewer sonar and gyro frames, and dolfyn only when its venv is already built.
+
+``hostile``: every framer fed 20 MB of random garbage and of each of its worst-case patterns
+(:mod:`auvlink.framing.hostile`: ':' with no line end for PD6, 0x7F7F and plausible 64 KiB headers
+with bad sums for PD0, repeated sync bytes for the binary formats, ...) in 64 KiB reads, as a port
+delivers them: MB/s (CPU time), peak memory of the run above the input itself (``VmHWM`` after
+resetting it through ``/proc/self/clear_refs``; tracemalloc would slow the framers several fold),
+and the most bytes the framer held between reads. Smoke mode: 128 KiB each.
 """
 
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -19,6 +27,7 @@ from _common import best_time, script_main, smoke, table, write_json
 
 from auvlink import formats
 from auvlink.decode_file import decode_bytes
+from auvlink.framing.hostile import WORST_PATTERNS as WORST_FORMATS
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
@@ -110,15 +119,62 @@ def _small(quick: bool) -> list[dict[str, Any]]:
     return rows
 
 
+def _vm_kib(key: str) -> int | None:
+    """``VmRSS`` / ``VmHWM`` of this process in KiB (Linux), or None."""
+    try:
+        m = re.search(rf"^{key}:\s+(\d+) kB", Path("/proc/self/status").read_text(), re.M)
+    except OSError:
+        return None
+    return int(m.group(1)) if m else None
+
+
+def _feed_all(fmt: str, data: bytes, read: int = 1 << 16) -> dict[str, Any]:
+    """Feed ``data`` to a fresh framer in ``read``-byte pieces; CPU time, peak memory, buffer high mark."""
+    framer = formats.get(fmt).framer()
+    try:
+        Path("/proc/self/clear_refs").write_text("5")  # reset VmHWM to the current RSS
+        base = _vm_kib("VmRSS")
+    except OSError:
+        base = None
+    most = frames = 0
+    t0 = time.process_time()
+    for k in range(0, len(data), read):
+        frames += len(framer.feed(data[k : k + read]))
+        most = max(most, framer.buffered)
+    frames += len(framer.flush())
+    cpu = max(time.process_time() - t0, 1e-9)
+    hwm = _vm_kib("VmHWM")
+    return {"seconds": cpu, "mb_per_s": len(data) / cpu / 1e6, "peak_mib": None if base is None or hwm is None
+            else max(0, hwm - base) / 1024, "max_buffered": most, "max_frame": framer.max_frame,
+            "frames": frames, "dropped_bytes": framer.stats.dropped_bytes, "bounded": most <= framer.max_frame}
+
+
+def _hostile(quick: bool) -> list[dict[str, Any]]:
+    """Every framer on garbage and its worst-case patterns (see the module docstring)."""
+    from auvlink.framing.hostile import garbage, pattern_stream
+
+    size = (128 << 10) if smoke() else 20_000_000
+    rows: list[dict[str, Any]] = []
+    for fmt in sorted(WORST_FORMATS):
+        for what, pattern in [("random garbage", None), *WORST_FORMATS[fmt]]:
+            data = garbage(size) if pattern is None else pattern_stream(pattern, size)
+            rows.append({"format": fmt, "input": what, "mb": size / 1e6, **_feed_all(fmt, data)})
+            del data
+    return rows
+
+
 def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
     t0 = time.perf_counter()
     pd0_rows, extra = _pd0(quick)
     rows = pd0_rows + _sonar(quick) + _small(quick)
     print(table(rows, ["what", "items", "seconds", "per_s", "x_dolfyn"]))
+    hostile = _hostile(quick)
+    print(table(hostile, ["format", "input", "mb", "seconds", "mb_per_s", "peak_mib", "max_buffered",
+                          "max_frame", "bounded"]))
     peers = extra.pop("peers", [])
     for key, msg in extra.items():
         print(f"{key}: {msg}")
-    result = {"rows": rows, "peers": peers, "notes": extra, "elapsed_s": time.perf_counter() - t0}
+    result = {"rows": rows, "hostile": hostile, "peers": peers, "notes": extra, "elapsed_s": time.perf_counter() - t0}
     write_json(out_dir, "decode", result)
     return result
 

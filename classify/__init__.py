@@ -16,7 +16,9 @@ Modules (import what you use; torch loads only with the model modules):
 - :mod:`classify.evaluate`: precision, recall, F1, confusion matrix and its PNG, look-alike pairs.
 - :mod:`classify.baseline2d`, :mod:`classify.baseline_images`, :mod:`classify.baseline_eval`: the
   single-image 2D CNN baseline on simulated sonar images.
-- :mod:`classify.recon_eval`: clouds reconstructed by recon from simulated passes (evaluation).
+
+The classifier on clouds recon reconstructs from simulated passes is evaluation, in the application layer:
+:mod:`auvlink.evaluation.recon_eval`.
 
 Files touched: synthesized-cloud caches and checkpoints only; no ports.
 """

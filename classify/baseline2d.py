@@ -20,6 +20,7 @@ import numpy.typing as npt
 import torch
 from torch import Tensor, nn
 
+from auvlink.progress import progress_bar
 from classify.dataset import stratified_split
 from classify.pointnet import default_device
 
@@ -117,8 +118,6 @@ class CNNResult:
 
 def train_cnn(data: ImageSet, cfg: CNNConfig, progress: bool = True,
               device: torch.device | None = None) -> CNNResult:
-    from tqdm import tqdm
-
     if cfg.threads > 0:
         torch.set_num_threads(cfg.threads)
     device = device or default_device()
@@ -134,7 +133,7 @@ def train_cnn(data: ImageSet, cfg: CNNConfig, progress: bool = True,
     best_acc, best_epoch, since, best_state = -1.0, 0, 0, copy.deepcopy(model.state_dict())
     history: list[dict[str, float]] = []
     t0 = time.perf_counter()
-    for epoch in tqdm(range(cfg.epochs), desc="train 2D CNN", disable=not progress):
+    for epoch in progress_bar(range(cfg.epochs), enabled=progress, desc="train 2D CNN"):
         model.train()
         order = tr_idx[rng.permutation(len(tr_idx))]
         for s in range(0, len(order), cfg.batch_size):

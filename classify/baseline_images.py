@@ -21,6 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from auvlink.progress import progress_bar
+from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
+from auvlink.sim.sonar_render import SonarRenderer
 from classify.baseline2d import ImageSet
 
 
@@ -62,16 +65,11 @@ def render_images(class_names: Sequence[str], settings: ImageSettings, progress:
 
 
 def _render(class_names: Sequence[str], settings: ImageSettings, progress: bool) -> ImageSet:
-    from tqdm import tqdm
-
-    from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
-    from auvlink.sim.sonar_render import SonarRenderer
-
     images, labels = [], []
     seabed = Seabed(depth=settings.depth_m, roughness=settings.roughness_m)
     jobs = [(c, h, t, k) for c in range(len(class_names)) for h in settings.headings_deg
             for t in settings.tilts_deg for k in range(settings.copies)]
-    for label, heading, tilt, copy in tqdm(jobs, desc="render", disable=not progress, leave=False):
+    for label, heading, tilt, copy in progress_bar(jobs, enabled=progress, desc="render", leave=False):
         name = class_names[label]
         rng = np.random.default_rng(np.random.SeedSequence(
             [settings.seed, zlib.crc32(name.encode()), round(heading * 1000), round(tilt * 1000), copy]))

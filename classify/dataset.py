@@ -24,6 +24,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from auvlink.progress import progress_bar
+from auvlink.sim.catalog import CLASSES, mesh_for
 from classify.errors import SynthesisError
 from classify.synthesis import MeshSynthesizer, SynthesisSettings
 
@@ -57,10 +59,6 @@ def default_cache_dir() -> Path:
 
 def catalog_meshes() -> tuple[tuple[str, ...], MeshSource]:
     """The simulator's object catalog: its class names and ``mesh_for``."""
-    try:
-        from auvlink.sim.catalog import CLASSES, mesh_for
-    except ImportError as exc:
-        raise SynthesisError("the object catalog auvlink.sim.catalog is not available") from exc
     return tuple(CLASSES), mesh_for
 
 
@@ -100,10 +98,8 @@ def synthesize_class(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArr
 def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: SynthesisSettings,
                    cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
     """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given)."""
-    from tqdm import tqdm
-
     pts, labels, meta = [], [], []
-    for label, name in enumerate(tqdm(class_names, desc="synthesize", disable=not progress, leave=False)):
+    for label, name in enumerate(progress_bar(class_names, enabled=progress, desc="synthesize", leave=False)):
         vertices, triangles = mesh_for(name)
         path = None
         if cache_dir is not None:

@@ -92,7 +92,7 @@ class EvalReport:
 
 def plot_confusion(report: EvalReport, path: Path, title: str = "") -> Path:
     """Write the confusion matrix (row-normalized colours, counts written in) as a PNG."""
-    import matplotlib
+    import matplotlib  # lazy: matplotlib loads only when a figure is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

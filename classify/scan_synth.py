@@ -42,13 +42,13 @@ Per view ``A``, ``L``, ``c_min`` and ``min_height_m`` are drawn uniformly from t
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-if TYPE_CHECKING:
-    from classify.synthesis import SynthesisSettings
+from classify.synthesis_settings import SynthesisSettings
+from recon.front_slope import replace_on_arcs
 
 F64 = npt.NDArray[np.float64]
 HALF_FOV_DEG = 14.5
@@ -111,7 +111,7 @@ def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], thre
 def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, settings: SynthesisSettings,
                 rng: np.random.Generator) -> F64:
     """Highlight-extension points (metres, object frame NED, seabed at ``z = 0``) of one pass."""
-    import open3d as o3d
+    import open3d as o3d  # lazy: Open3D loads only when clouds are synthesized (not for inference)
 
     spread = math.radians(settings.spread_deg)
     alt = float(rng.uniform(*settings.altitude_m))
@@ -154,8 +154,6 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
     keep = -pts[:, 2] >= min_h
     if settings.correction == "none" or not keep.any():
         return np.asarray(pts[keep])
-    from recon.front_slope import replace_on_arcs
-
     u, w_vec = arc_vectors(heading_rad, tilt_rad)
     pi, bi, r = pi[keep], bi[keep], r[keep]
     arcs = np.column_stack([origins[pi], u[bi], np.broadcast_to(w_vec, (len(pi), 3)), r])

@@ -20,6 +20,7 @@ import numpy.typing as npt
 import torch
 from torch import nn
 
+from auvlink.progress import progress_bar
 from classify.augment import AugmentConfig, augment_batch, normalize_batch
 from classify.dataset import CloudSet, stratified_split
 from classify.pointnet import PointNet, PointNetConfig, default_device, orthogonality_loss
@@ -102,8 +103,6 @@ def _val(model: PointNet, pts: npt.NDArray[np.float32], labels: npt.NDArray[np.i
 def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
           device: torch.device | None = None) -> TrainResult:
     """Train a PointNet on ``data``; returns the best model (by validation accuracy)."""
-    from tqdm import tqdm
-
     if cfg.threads > 0:
         torch.set_num_threads(cfg.threads)
     device = device or default_device()
@@ -126,7 +125,7 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
     best: tuple[float, float] = (-1.0, float("inf"))
     best_state, best_epoch, since_best = copy.deepcopy(model.state_dict()), 0, 0
     t0 = time.perf_counter()
-    bar = tqdm(range(cfg.epochs), desc="train", disable=not progress, leave=True)
+    bar = progress_bar(range(cfg.epochs), enabled=progress, desc="train", leave=True)
     for epoch in bar:
         model.train()
         order = tr_idx[rng.permutation(len(tr_idx))]

@@ -1,12 +1,14 @@
 """The whole job behind ``auvlink train`` and ``auvlink eval``: synthesize from the object catalog,
 train, evaluate on held-out synthesized clouds (other seed, headings, tilts and altitudes), save.
-With ``recon_eval``, also on clouds that recon reconstructs from simulated passes
-(:func:`classify.recon_eval.standard_passes`; evaluation only, never training data).
+``extra_evals`` adds checks the caller owns, each stored in the metrics under its name (``auvlink train
+--recon-eval``: clouds that recon reconstructs from simulated passes,
+:func:`auvlink.evaluation.recon_eval.recon_metrics`; evaluation only, never training data).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -40,7 +42,8 @@ def evaluate_classifier(clf: Classifier, data: CloudSet) -> EvalReport:
 
 
 def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = None, progress: bool = True,
-                   meshes: tuple[tuple[str, ...], MeshSource] | None = None, recon_eval: bool = False) -> TrainOutcome:
+                   meshes: tuple[tuple[str, ...], MeshSource] | None = None,
+                   extra_evals: Mapping[str, Callable[[Classifier], dict[str, Any]]] | None = None) -> TrainOutcome:
     names, mesh_for = meshes if meshes is not None else catalog_meshes()
     t0 = time.perf_counter()
     data = synthesize_set(names, mesh_for, settings.synthesis, cache_dir, progress)
@@ -57,16 +60,8 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
                            settings.train.to_dict(), metrics)
     report = evaluate_classifier(Classifier.load(path), held)
     metrics["heldout"] = {"settings": held_settings.to_dict(), **report.to_dict()}
-    if recon_eval:
-        from dataclasses import asdict
-
-        from classify.recon_eval import evaluate_recon, reconstruct_set, standard_passes
-
-        passes = standard_passes()
-        clouds = reconstruct_set(names, passes, progress, cache_dir)
-        rec, missed = evaluate_recon(Classifier.load(path), clouds)
-        metrics["recon"] = {"passes": asdict(passes), "n_passes": len(clouds), "not_detected": missed,
-                            **rec.to_dict()}
+    for key, check in (extra_evals or {}).items():
+        metrics[key] = check(Classifier.load(path))
     save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
                     settings.train.to_dict(), metrics)
     return TrainOutcome(path, result, report, metrics)

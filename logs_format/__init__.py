@@ -1,7 +1,8 @@
 """logs_format: the auvlink mission log (MCAP): record raw frames, read them back, replay, inspect.
 
 * :class:`MissionLogWriter` - a raw-frame listener for drivers; one channel per device.
-* :class:`MissionLogReader` - streaming time-ordered merge of channels, robust to truncation.
+* :class:`MissionLogReader` - streaming time-ordered merge of channels, robust to truncation and damage;
+  :class:`LossReport` says what was lost.
 * :class:`Replay`, :func:`replay_samples` - raw frames back through the live framers and codecs.
 * :func:`log_info`, :func:`export_log`, :func:`import_can_log`, :func:`import_serial_capture`.
 
@@ -12,10 +13,10 @@ from logs_format.chunks import ChannelInfo, LogMessage
 from logs_format.export import ExportResult, export_log
 from logs_format.importers import ImportResult, import_can_log, import_serial_capture, is_can_log
 from logs_format.info import format_info, log_info
+from logs_format.loss import LossReport, LostSpan
 from logs_format.profile import LogError
 from logs_format.reader import MissionLogReader, read_messages
 from logs_format.replay import LogTransport, Replay, paced, replay_frames, replay_samples
-from logs_format.scan import LossReport
 from logs_format.writer import MissionLogWriter
 
 __all__ = [
@@ -26,6 +27,7 @@ __all__ = [
     "LogMessage",
     "LogTransport",
     "LossReport",
+    "LostSpan",
     "MissionLogReader",
     "MissionLogWriter",
     "Replay",

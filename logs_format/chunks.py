@@ -11,19 +11,17 @@ from __future__ import annotations
 import os
 import struct
 import threading
-import zlib
 from dataclasses import dataclass, field
 from io import BytesIO
 from typing import BinaryIO
 
-import lz4.frame
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, Schema
 
+from logs_format.chunkref import BadChunk, ChunkRef, inflate
 from logs_format.profile import CH_DEVICE, CH_FORMAT
-from logs_format.scan import ChunkRef
 
 _REC = struct.Struct("<BQ")
 _MSG_HEAD = struct.Struct("<HIQQ")
@@ -70,10 +68,6 @@ class LogMessage:
         return None if self.publish_time_ns == self.log_time_ns else self.publish_time_ns
 
 
-class BadChunk(Exception):
-    """Internal: a chunk that cannot be opened (CRC, compression, layout)."""
-
-
 class _Prefetch:
     """One chunk being read (``os.pread``: the file position is not touched) and inflated in a thread."""
 
@@ -100,30 +94,6 @@ class _Prefetch:
 
     def join(self) -> None:
         self._thread.join()
-
-
-def inflate(ref: ChunkRef, data: bytes, zstd: zstandard.ZstdDecompressor) -> bytes:
-    """The records of a chunk from its stored bytes: decompressed, size and CRC checked."""
-    if len(data) != ref.data_length:
-        raise BadChunk("short read")
-    if ref.compression == "message":
-        return _REC.pack(_OP_MESSAGE, ref.data_length) + data
-    try:
-        if ref.compression == "zstd":
-            out = zstd.decompress(data, max_output_size=ref.uncompressed_size)
-        elif ref.compression == "lz4":
-            out = lz4.frame.decompress(data)
-        elif ref.compression == "":
-            out = data
-        else:
-            raise BadChunk(f"unsupported compression {ref.compression!r}")
-    except (zstandard.ZstdError, RuntimeError, ValueError) as exc:
-        raise BadChunk(f"decompression failed: {exc}") from exc
-    if len(out) != ref.uncompressed_size:
-        raise BadChunk("uncompressed size mismatch")
-    if ref.uncompressed_crc and zlib.crc32(out) != ref.uncompressed_crc:
-        raise BadChunk("CRC mismatch")
-    return out
 
 
 class ChunkOpener:

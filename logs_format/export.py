@@ -36,11 +36,13 @@ class ExportResult:
     png_frames: dict[str, int] = field(default_factory=dict)
     files: list[Path] = field(default_factory=list)
     decode_errors: dict[str, int] = field(default_factory=dict)
-    loss: str = ""
+    loss: str = ""  # one line: what the log lost ("complete" when nothing)
+    loss_report: dict[str, Any] = field(default_factory=dict)  # the log's LossReport as JSON
 
     def as_dict(self) -> dict[str, Any]:
         return {"out": str(self.out), "csv_rows": self.csv_rows, "png_frames": self.png_frames,
-                "files": [str(p) for p in self.files], "decode_errors": self.decode_errors, "loss": self.loss}
+                "files": [str(p) for p in self.files], "decode_errors": self.decode_errors, "loss": self.loss,
+                "loss_report": self.loss_report}
 
 
 def flatten(obj: Any, prefix: str = "") -> dict[str, Any]:
@@ -144,6 +146,7 @@ def export_log(
             for drv in rep.drivers.values():
                 result.decode_errors[drv.name] = drv.stats.decode_errors
             result.loss = rep.loss.describe()
+            result.loss_report = rep.loss.to_json()
     finally:
         for table in tables.values():
             table.close()

@@ -121,7 +121,7 @@ def render_fan(image: np.ndarray, grid: FanGrid) -> np.ma.MaskedArray:
 def save_fan_png(path: str | Path, image: np.ndarray, grid: FanGrid, vmax: float | None = None,
                  cmap: str = "inferno") -> None:
     """Write the fan picture as a PNG (matplotlib; geometry in the PNG's Description field)."""
-    import matplotlib
+    import matplotlib  # lazy: matplotlib loads only when a PNG is written, not with every logs_format import
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt

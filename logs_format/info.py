@@ -24,7 +24,7 @@ from logs_format.reader import MissionLogReader
 
 @dataclass
 class _Acc:
-    times: array = field(default_factory=lambda: array("q"))
+    times: array = field(default_factory=lambda: array("Q"))  # log times are u64 ns (MCAP)
     bytes: int = 0
     decode_errors: int = 0
     last_error: str = ""
@@ -86,7 +86,7 @@ def log_info(
         channels: dict[str, Any] = {}
         for topic, info in sorted(log.channels.items()):
             a = acc.get(topic, _Acc())
-            times = np.frombuffer(a.times, dtype=np.int64) if len(a.times) else np.zeros(0, np.int64)
+            times = np.frombuffer(a.times, dtype=np.uint64) if len(a.times) else np.zeros(0, np.uint64)
             n = int(times.size)
             span = (int(times.max()) - int(times.min())) * 1e-9 if n > 1 else 0.0
             channels[topic] = {
@@ -119,7 +119,7 @@ def log_info(
             "metadata": log.metadata(decode_json=True),
             "attachments": [{"name": a.name, "media_type": a.media_type, "size": a.size}
                             for a in log.attachments()],
-            "loss": {**log.loss.as_dict(), "summary": log.loss.describe()},
+            "loss": log.loss.to_json(),
         }
 
 

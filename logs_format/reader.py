@@ -5,9 +5,10 @@
             ...
         print(log.loss.describe())
 
-The file is indexed by :func:`logs_format.scan.scan` (record headers only, no trust in the
-summary), so a log cut off mid-write yields every message of its complete chunks and reports the
-rest in :attr:`MissionLogReader.loss`; nothing raises for damage. Chunks are opened lazily in the
+The file is indexed by :func:`logs_format.scan.scan` (record headers, resynchronised after damage;
+the summary's chunk index when the summary checks out), so a damaged or cut-off log yields every
+message of its intact chunks and reports the rest in :attr:`MissionLogReader.loss` (a
+:class:`~logs_format.loss.LossReport`); nothing raises for damage. Chunks are opened lazily in the
 order of their first log time and merged with a heap, so memory holds only the chunks that
 overlap in time (one or two), whatever the size of the log. While one chunk is consumed, the next
 is read and decompressed in a background thread (``prefetch=False`` turns that off).
@@ -27,8 +28,9 @@ from typing import Any
 from mcap.records import Attachment, Channel, Schema
 
 from logs_format.chunks import BadChunk, ChannelInfo, ChunkOpener, LogMessage
+from logs_format.loss import DAMAGED_CHUNK, LossReport, LostSpan
 from logs_format.profile import LogError, metadata_values
-from logs_format.scan import AttachmentRef, ChunkRef, LossReport, scan
+from logs_format.scan import AttachmentRef, ChunkRef, scan
 
 _Msg = tuple[int, int, int, int, bytes]  # log_time, publish_time, sequence, channel_id, data
 _time = itemgetter(0)
@@ -55,7 +57,7 @@ class MissionLogReader:
         self._channels: dict[int, ChannelInfo] = {}
         for ch in self.index.channels.values():
             self._add_channel(ch)
-        self._bad: dict[int, int] = {}  # chunk offset -> bytes, counted once
+        self._bad: set[int] = set()  # offsets of chunks found damaged (each reported once)
         self._orphans: set[tuple[int, int, int]] = set()  # (chunk offset, log time, sequence)
 
     # -- life cycle -----------------------------------------------------------------------
@@ -147,18 +149,17 @@ class MissionLogReader:
             schemas, channels, messages = self._opener.open(ref)
         except BadChunk as exc:
             if ref.offset not in self._bad:
-                self._bad[ref.offset] = ref.data_length
-                self.loss.bad_chunks = len(self._bad)
-                self.loss.bad_chunk_bytes = sum(self._bad.values())
+                self._bad.add(ref.offset)
+                run = self.index.chunk_messages.get(ref.offset)
+                self.loss.add(LostSpan(DAMAGED_CHUNK, ref.offset, ref.end - ref.offset, ref.start_ns, ref.end_ns,
+                                       None if run is None else run.count, f"damaged chunk: {exc}"))
                 self.loss.last_time_ns = max(
                     (c.end_ns for c in self.index.chunks if c.offset not in self._bad), default=None)
-                self.loss.reason = f"chunk at byte {ref.offset}: {exc}"
             return []
         for s in schemas:
             self._schemas[s.id] = s
-        for c in channels:
-            if c.id not in self._channels:
-                self._add_channel(c)
+        for c in channels:  # a chunk's own definitions are CRC-checked: they win over top-level ones
+            self._add_channel(c)
         return messages
 
     def _wanted(self, names: set[str] | None) -> set[int] | None:

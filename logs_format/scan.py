@@ -1,113 +1,42 @@
-"""Walk the records of an MCAP file without trusting its summary: survives truncation and garbage.
+"""Index the records of an MCAP file without trusting any single byte: survives truncation and damage.
 
 A log cut off mid-write (kill -9, power loss, full disk) has no summary section and usually ends
-inside a record. :func:`scan` reads only record headers (opcode, length) and the small fixed
-headers of chunk records, seeking over their payloads, so a 1 GB log is indexed in milliseconds.
-It stops at the first record that does not fit in the file (or is not a record at all) and
-reports what is lost. It never raises for a damaged file; only a file that does not start with
-the MCAP magic is refused (:class:`~logs_format.profile.LogError`).
-
-Record layout (https://mcap.dev/spec): ``opcode u8 | length u64 | body[length]``; chunk body:
-``start u64 | end u64 | uncompressed_size u64 | uncompressed_crc u32 | compression str | records
-bytes``.
+inside a record; a damaged one has a record that does not parse. :func:`scan` walks the data section
+reading only record headers and the small fixed headers of chunks (seeking over their payloads, so
+a 1 GB log is indexed in milliseconds). Where a record does not parse it first tries the bytes as a
+chunk whose opcode was damaged, then resynchronises on the next plausible record
+(:mod:`logs_format.walk`), so damage costs only the records it hit. When the file has a
+whole footer and a summary whose CRC matches (:mod:`logs_format.summary`), the summary's chunk index
+locates every chunk, including one whose record header is damaged, and its metadata and attachment
+indexes recover records the walk skipped. What is lost goes into a :class:`LossReport`; nothing
+raises for damage; only a file that does not start with the MCAP magic is refused
+(:class:`~logs_format.profile.LogError`).
 """
 
 from __future__ import annotations
 
 import struct
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from io import BytesIO
-from typing import Any, BinaryIO
+from typing import BinaryIO
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, Metadata, Schema
 
+from logs_format.loss import CUT_OFF, UNREADABLE, LossReport, LostSpan
 from logs_format.profile import LogError
+from logs_format.records import CHUNK_HEAD, MAGIC, AttachmentRef, ChunkRef, IndexRun, read_record
+from logs_format.summary import Summary, read_summary
+from logs_format.walk import Walk
+from logs_format.walk import walk as walk_records
 
-MAGIC = b"\x89MCAP0\r\n"
-_REC = struct.Struct("<BQ")
-_CHUNK_HEAD = struct.Struct("<QQQII")  # start, end, uncompressed size, crc, compression length
-_U64 = struct.Struct("<Q")
-_MSG_HEAD = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
-_KNOWN = {int(op) for op in Opcode}
-
-
-@dataclass(frozen=True, slots=True)
-class ChunkRef:
-    """Where one chunk (or one message written outside any chunk) lies in the file."""
-
-    offset: int  # first byte of the record (its opcode)
-    start_ns: int
-    end_ns: int
-    compression: str  # "", "zstd", "lz4"; "message" for a bare top-level Message record
-    uncompressed_size: int
-    uncompressed_crc: int
-    data_offset: int  # first byte of the (compressed) records
-    data_length: int
-
-
-@dataclass(frozen=True, slots=True)
-class AttachmentRef:
-    offset: int
-    length: int  # whole record, header included
-    name: str
-    media_type: str
-    log_time_ns: int
-    create_time_ns: int
-    size: int
-
-
-@dataclass
-class LossReport:
-    """What a damaged or cut-off log lost. ``complete`` logs report nothing lost."""
-
-    complete: bool = False
-    file_bytes: int = 0
-    valid_bytes: int = 0  # bytes up to the end of the last whole record
-    lost_bytes: int = 0  # bytes after it (a partial record, garbage, zeros)
-    first_time_ns: int | None = None  # oldest log time in the log
-    last_time_ns: int | None = None  # newest log time among the chunks that survived whole
-    lost_from_ns: int | None = None  # start time of the partial chunk, when its header survived
-    bad_chunks: int = 0  # whole chunks whose CRC or decompression failed (skipped)
-    bad_chunk_bytes: int = 0
-    orphan_messages: int = 0  # messages whose channel definition was lost
-    reason: str = ""
-
-    @property
-    def truncated(self) -> bool:
-        return not self.complete
-
-    @property
-    def lossy(self) -> bool:
-        """True when messages (not only the summary) may be missing."""
-        return self.lost_bytes > 0 or self.bad_chunks > 0 or self.orphan_messages > 0
-
-    def as_dict(self) -> dict[str, Any]:
-        return {**asdict(self), "truncated": self.truncated, "lossy": self.lossy}
-
-    def describe(self) -> str:
-        """One line for people."""
-        if self.complete and not self.lossy:
-            return "complete"
-        parts = ["complete" if self.complete else "incomplete (no summary: cut off or not closed)"]
-        if self.lost_bytes:
-            parts.append(f"{self.lost_bytes} bytes lost at the end")
-        if self.last_time_ns is not None and self.first_time_ns is not None and not self.complete:
-            into = (self.last_time_ns - self.first_time_ns) * 1e-9
-            parts.append(f"readable up to {into:.3f} s into the log")
-        if self.bad_chunks:
-            parts.append(f"{self.bad_chunks} damaged chunk(s) skipped ({self.bad_chunk_bytes} bytes)")
-        if self.orphan_messages:
-            parts.append(f"{self.orphan_messages} message(s) without a channel definition")
-        if self.reason:
-            parts.append(self.reason)
-        return "; ".join(parts)
+__all__ = ["MAGIC", "AttachmentRef", "ChunkRef", "IndexRun", "LogIndex", "LossReport", "scan"]
 
 
 @dataclass
 class LogIndex:
-    """Everything :func:`scan` found: chunk positions, metadata, attachments, summary channels."""
+    """Everything :func:`scan` found: chunk positions, metadata, attachments, schemas and channels."""
 
     profile: str = ""
     library: str = ""
@@ -117,56 +46,113 @@ class LogIndex:
     schemas: dict[int, Schema] = field(default_factory=dict)
     channels: dict[int, Channel] = field(default_factory=dict)
     loss: LossReport = field(default_factory=LossReport)
+    #: per chunk offset: what its message index records say (messages, time range), when they survived
+    chunk_messages: dict[int, IndexRun] = field(default_factory=dict)
 
 
-def _parse(record: bytes) -> ReadDataStream:
-    return ReadDataStream(BytesIO(record))
+def _index_run(runs: list[IndexRun]) -> IndexRun:
+    starts = [r.start_ns for r in runs if r.start_ns is not None]
+    ends = [r.end_ns for r in runs if r.end_ns is not None]
+    return IndexRun(-1, sum(r.count for r in runs), min(starts, default=None), max(ends, default=None))
 
 
-def _str_at(buf: bytes, pos: int) -> tuple[str, int]:
-    (n,) = struct.unpack_from("<I", buf, pos)
-    end = pos + 4 + n
-    if end > len(buf):
-        raise ValueError("string runs past the record")
-    return buf[pos + 4 : end].decode("utf-8"), end
+def _run_after(walk: Walk, pos: int) -> IndexRun | None:
+    """The message index records that follow ``pos`` back to back (a chunk's), merged; None if none."""
+    runs = []
+    while pos in walk.indexes:
+        rec = walk.indexes[pos]
+        runs.append(rec.item)
+        pos = rec.end
+    return _index_run(runs) if runs else None
 
 
-def _chunk_ref(f: BinaryIO, pos: int, length: int) -> ChunkRef | None:
-    """Read a chunk record's fixed header; None when it is inconsistent."""
-    head = f.read(min(length, 4096))
-    if len(head) < _CHUNK_HEAD.size + 8:
-        return None
-    start, end, usize, crc, clen = _CHUNK_HEAD.unpack_from(head)
-    off = _CHUNK_HEAD.size
-    if off + clen + 8 > len(head):
-        return None
-    try:
-        compression = head[off : off + clen].decode("ascii")
-    except UnicodeDecodeError:
-        return None
-    (data_length,) = _U64.unpack_from(head, off + clen)
-    data_offset = pos + 9 + off + clen + 8
-    if data_offset + data_length != pos + 9 + length:
-        return None
-    return ChunkRef(pos, start, end, compression, usize, crc, data_offset, data_length)
+def _from_summary(f: BinaryIO, index: LogIndex, walk: Walk, summary: Summary) -> None:
+    """Chunks, metadata and attachments the summary indexes but the walk did not find."""
+    for ci in summary.chunk_indexes:
+        off, span = ci.chunk_start_offset, ci.chunk_length
+        if off in walk.chunks or any(off < p < off + span for p in walk.chunks if walk.chunks[p].compression
+                                     != "message"):
+            continue  # the walk found this chunk, or a whole chunk where the index says this one lies
+        data_offset = off + 9 + CHUNK_HEAD.size + len(ci.compression.encode()) + 8
+        f.seek(off + 9 + 24)
+        crc_bytes = f.read(4)
+        if data_offset + ci.compressed_size != off + span or len(crc_bytes) != 4:
+            continue  # an index entry that cannot describe a chunk record
+        (crc,) = struct.unpack("<I", crc_bytes)
+        walk.chunks[off] = ChunkRef(off, ci.message_start_time, ci.message_end_time, ci.compression,
+                                    ci.uncompressed_size, crc, data_offset, ci.compressed_size)
+        runs = [walk.indexes[p].item for p in ci.message_index_offsets.values() if p in walk.indexes]
+        if runs:
+            index.chunk_messages[off] = _index_run(runs)
+        # what the walk made of the bytes of this chunk (inner records, a gap) is superseded
+        for d in (walk.chunks, walk.metadata, walk.attachments):
+            for p in [p for p in d if off < p < off + span]:
+                del d[p]
+        walk.gaps = [g for a, b in walk.gaps for g in ((a, min(b, off)), (max(a, off + span), b)) if g[0] < g[1]]
+    known = set(walk.metadata)
+    for mi in summary.metadata_indexes:
+        if mi.offset not in known:
+            f.seek(mi.offset + 9)
+            try:
+                meta = Metadata.read(ReadDataStream(BytesIO(f.read(max(0, mi.length - 9)))))
+            except Exception:  # damaged beyond its header: stays lost
+                continue
+            walk.metadata[mi.offset] = (meta.name, dict(meta.metadata))
+    for ai in summary.attachment_indexes:
+        if ai.offset not in walk.attachments:
+            rec = read_record(f, ai.offset, ai.offset + ai.length)
+            if rec is not None and rec.op == Opcode.ATTACHMENT:
+                walk.attachments[ai.offset] = rec.item
 
 
-def _attachment_ref(f: BinaryIO, pos: int, length: int) -> AttachmentRef | None:
-    head = f.read(min(length, 65536))
-    try:
-        log_time, create_time = struct.unpack_from("<QQ", head)
-        name, p = _str_at(head, 16)
-        media, p = _str_at(head, p)
-        (size,) = _U64.unpack_from(head, p)
-    except (struct.error, ValueError, UnicodeDecodeError):
-        return None
-    return AttachmentRef(pos, 9 + length, name, media, log_time, create_time, size)
+def _losses(index: LogIndex, walk: Walk, limit: int, size: int, complete: bool) -> None:
+    loss = index.loss
+    chunks = sorted(walk.chunks.values(), key=lambda c: c.offset)
 
+    def around(a: int, b: int) -> tuple[int | None, int | None]:
+        before = [c.end_ns for c in chunks if c.offset < a]
+        after = [c.start_ns for c in chunks if c.offset >= b]
+        return (max(before) if before else None), (min(after) if after else None)
 
-def _start_loss(size: int, pos: int, loss: LossReport, reason: str) -> None:
-    loss.valid_bytes = pos
-    loss.lost_bytes = size - pos
-    loss.reason = reason
+    def owned_by_previous(a: int, run: IndexRun) -> bool:
+        """The index records after a gap are the rest of the index of the chunk before it (read whole)."""
+        prev = [c for c in chunks if c.offset < a and c.compression != "message"]
+        return bool(prev) and run.start_ns is not None and run.end_ns is not None \
+            and prev[-1].start_ns <= run.start_ns and run.end_ns <= prev[-1].end_ns
+
+    for a, b in walk.gaps:
+        run = _run_after(walk, b)
+        if run is not None and run.count and not owned_by_previous(a, run):
+            loss.add(LostSpan(UNREADABLE, a, b - a, run.start_ns, run.end_ns, run.count,
+                              "damaged chunk: no record parses"))
+        else:
+            t0, t1 = around(a, b)
+            loss.add(LostSpan(UNREADABLE, a, b - a, t0, t1, None, "damaged records skipped",
+                              times_estimated=True))
+    if walk.tail is not None and walk.tail < limit:
+        nbytes = limit - walk.tail
+        if complete:
+            t0, t1 = around(walk.tail, limit)
+            loss.add(LostSpan(UNREADABLE, walk.tail, nbytes, t0, t1, None, "no record parses",
+                              times_estimated=True))
+        elif walk.in_summary:
+            loss.add(LostSpan(CUT_OFF, walk.tail, nbytes, None, None, 0, "file ends inside the summary"))
+        elif walk.tail_chunk is not None:
+            head = walk.tail_chunk
+            loss.lost_from_ns = head.start_ns
+            loss.add(LostSpan(CUT_OFF, walk.tail, nbytes, head.start_ns, head.end_ns, None,
+                              "file ends inside a chunk"))
+        else:
+            t0, _ = around(walk.tail, limit)
+            loss.add(LostSpan(CUT_OFF, walk.tail, nbytes, t0, None, None, "file ends inside a record"))
+    if not complete:
+        loss.valid_bytes = walk.end if walk.tail is not None else size
+        loss.lost_bytes = size - loss.valid_bytes
+    for ref in chunks:
+        if ref.offset not in index.chunk_messages:
+            run = _run_after(walk, ref.end)
+            if run is not None:
+                index.chunk_messages[ref.offset] = run
 
 
 def scan(f: BinaryIO, size: int) -> LogIndex:
@@ -178,76 +164,30 @@ def scan(f: BinaryIO, size: int) -> LogIndex:
     if magic != MAGIC[: len(magic)]:
         raise LogError("not an MCAP file (bad magic bytes)")
     if len(magic) < 8:
-        _start_loss(size, 0, loss, "file ends inside the magic bytes")
+        loss.lost_bytes = size
+        loss.reason = "file ends inside the magic bytes"
         return index
-    pos = 8
-    in_summary = False
-    last_end: int | None = None
-    while True:
-        f.seek(pos)
-        head = f.read(9)
-        if len(head) < 9:
-            if head:
-                _start_loss(size, pos, loss, "file ends inside a record header")
-            else:
-                _start_loss(size, pos, loss, "file ends without a footer")
-            break
-        op, length = _REC.unpack(head)
-        if op not in _KNOWN and op < 0x80:
-            _start_loss(size, pos, loss, f"no record at byte {pos} (opcode 0x{op:02X}): garbage or zeros")
-            break
-        end = pos + 9 + length
-        if end > size:
-            _start_loss(size, pos, loss, f"file ends inside a record (opcode 0x{op:02X}) at byte {pos}")
-            if op == Opcode.CHUNK and size - pos - 9 >= _CHUNK_HEAD.size:
-                loss.lost_from_ns = _CHUNK_HEAD.unpack(f.read(_CHUNK_HEAD.size))[0]
-            break
-        if op == Opcode.CHUNK and not in_summary:
-            ref = _chunk_ref(f, pos, length)
-            if ref is None:
-                loss.bad_chunks += 1
-                loss.bad_chunk_bytes += 9 + length
-            else:
-                index.chunks.append(ref)
-                last_end = ref.end_ns if last_end is None else max(last_end, ref.end_ns)
-        elif op == Opcode.MESSAGE and not in_summary:
-            body = f.read(min(length, _MSG_HEAD.size))
-            if len(body) == _MSG_HEAD.size:
-                t = _MSG_HEAD.unpack(body)[2]
-                index.chunks.append(ChunkRef(pos, t, t, "message", length, 0, pos + 9, length))
-                last_end = t if last_end is None else max(last_end, t)
-        elif op in (Opcode.SCHEMA, Opcode.CHANNEL, Opcode.METADATA, Opcode.HEADER):
-            try:
-                stream = _parse(f.read(length))
-                if op == Opcode.SCHEMA:
-                    schema = Schema.read(stream)
-                    index.schemas[schema.id] = schema
-                elif op == Opcode.CHANNEL:
-                    channel = Channel.read(stream)
-                    index.channels[channel.id] = channel
-                elif op == Opcode.METADATA:
-                    meta = Metadata.read(stream)
-                    index.metadata.append((meta.name, dict(meta.metadata)))
-                else:
-                    index.profile = stream.read_prefixed_string()
-                    index.library = stream.read_prefixed_string()
-            except Exception:  # a damaged small record: skip it, keep scanning
-                loss.reason = f"damaged record (opcode 0x{op:02X}) at byte {pos} skipped"
-        elif op == Opcode.ATTACHMENT and not in_summary:
-            att = _attachment_ref(f, pos, length)
-            if att is not None:
-                index.attachments.append(att)
-        elif op == Opcode.DATA_END:
-            in_summary = True
-        elif op == Opcode.FOOTER:
-            f.seek(end)
-            if f.read(8) == MAGIC and end + 8 == size:
-                loss.complete = True
-                loss.valid_bytes = size
-            else:
-                _start_loss(size, end, loss, "footer not followed by the closing magic")
-            break
-        pos = end
-    loss.last_time_ns = last_end
-    loss.first_time_ns = min((c.start_ns for c in index.chunks), default=None)
+    summary = read_summary(f, size)
+    limit = summary.start if summary.usable else summary.footer_pos if summary.complete else size
+    walk = walk_records(f, 8, limit, size, distrust_summary=bool(summary.problem))
+    walk.settle()
+    index.schemas, index.channels = walk.schemas, walk.channels
+    index.profile, index.library = walk.profile, walk.library
+    if summary.usable:
+        index.schemas.update(summary.schemas)
+        index.channels.update(summary.channels)
+        _from_summary(f, index, walk, summary)
+        loss.summary_index = True
+    loss.complete = summary.complete
+    if summary.complete:
+        loss.valid_bytes = size
+    _losses(index, walk, limit, size, summary.complete)
+    if summary.problem:
+        loss.reason = summary.problem
+    index.chunks = sorted(walk.chunks.values(), key=lambda c: c.offset)
+    index.metadata = [walk.metadata[p] for p in sorted(walk.metadata)]
+    index.attachments = [walk.attachments[p] for p in sorted(walk.attachments)]
+    loss.last_time_ns = max((c.end_ns for c in index.chunks), default=None)
+    starts = [c.start_ns for c in index.chunks] + [s.start_ns for s in loss.spans if s.start_ns is not None]
+    loss.first_time_ns = min(starts, default=None)
     return index

@@ -37,11 +37,12 @@ from typing import TYPE_CHECKING, Any
 
 from mcap.writer import LIBRARY_IDENTIFIER, Writer
 
-from auvlink import __version__, formats
+from auvlink import formats
 from auvlink.atomic import partial_path, write_target
 from auvlink.clock import now_ns
 from auvlink.errors import UnknownFormatError
 from auvlink.jsonutil import dumps
+from auvlink.version import __version__
 from logs_format.profile import (
     JSON_MESSAGE_ENCODING,
     JSON_SCHEMA_ENCODING,
@@ -55,6 +56,7 @@ from logs_format.profile import (
     metadata_strings,
     wire_channel,
 )
+from logs_format.selfcontained import repeat_definitions
 
 if TYPE_CHECKING:
     from auvlink.config import VehicleConfig
@@ -115,6 +117,7 @@ class MissionLogWriter:
         except OSError as exc:
             raise LogError(f"cannot create log {self.path}: {exc.strerror or exc}") from exc
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=kind)
+        repeat_definitions(self._mcap)  # every chunk names its channels: readable alone after damage
         self._lock = threading.Lock()
         self._channels: dict[str, ChannelStats] = {}
         self._schemas: dict[tuple[str, str], int] = {}

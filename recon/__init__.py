@@ -6,8 +6,8 @@ Pure computation on numpy arrays and small frozen dataclasses (no ports, no file
 :mod:`recon.highlight` and :mod:`recon.front_slope` (highlight-extension points), :mod:`recon.seabed`,
 :mod:`recon.cluster` (with :mod:`recon.cluster_index`), :mod:`recon.far_side` (centroids: the hidden far side),
 :mod:`recon.pipeline` (:class:`Reconstructor`), :mod:`recon.ply`, :mod:`recon.synthetic` (frames from analytic
-shapes, for tests and benchmarks) and :mod:`recon.simeval` (recon against the simulator's ground truth;
-imports ``auvlink.sim`` lazily).
+shapes, for tests and benchmarks). Recon against the simulator's ground truth is evaluation, in the application
+layer: :mod:`auvlink.evaluation.simeval`.
 """
 
 from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster

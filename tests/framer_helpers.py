@@ -1,4 +1,4 @@
-"""Helpers shared by the framer tests: feed a stream in given chunks, check frames were kept in order."""
+"""Feed a stream to a framer in given chunks (the format-specific framer tests; generic ones: test_conformance)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,3 @@ def run(framer: Framer, stream: bytes, cuts: list[int]) -> list[bytes]:
     return out
 
 
-def is_subsequence(expected: list[bytes], got: list[bytes]) -> bool:
-    """True when every frame of ``expected`` appears in ``got``, in the same order."""
-    it = iter(got)
-    return all(any(x == y for y in it) for x in expected)

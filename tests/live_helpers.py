@@ -9,6 +9,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from auvlink.config import load_config
 from auvlink.sim.live import serve
 from auvlink.sim.scene import loads_scene
@@ -49,6 +51,17 @@ window_length = 10.0
 fps = 10.0
 """
 TRUTH_NE = ((10.0, 0.3), (19.0, -0.3))
+
+
+def classes_against_truth(detections: list[dict[str, Any]], scene_text: str) -> tuple[list[str], list[str]]:
+    """(detected classes, the simulator's truth class of each detection's nearest object) from
+    ``detections.jsonl`` objects; asserts one detection per true object."""
+    objects = loads_scene(scene_text).objects
+    truth = np.array([[o.north, o.east] for o in objects]).reshape(-1, 2)
+    found = np.array([d["position_ned"][:2] for d in detections]).reshape(-1, 2)
+    nearest = np.linalg.norm(found[:, None] - truth[None], axis=2).argmin(axis=1).tolist()
+    assert sorted(nearest) == list(range(len(objects))), (nearest, detections)
+    return [d["class"] for d in detections], [objects[j].class_name for j in nearest]
 
 
 def vehicle_config(tmp_path: Path, pressure: str = "paro") -> Path:

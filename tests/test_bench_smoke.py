@@ -23,9 +23,18 @@ from auvlink.cli.bench import STAGES, available_stages, benchmarks_dir
 
 pytestmark = pytest.mark.timeout(600)
 
-#: the smoke budget is 20 s per stage on a quiet machine; the 2-core build machine is shared
+#: the smoke budget is 20 s per stage on a quiet machine; the 2-core build machine is shared, so the
+#: guard (a hang or a runaway smoke setting, not a benchmark) scales with the load when the run began
 STAGE_LIMIT_S = 40.0
 TOTAL_LIMIT_S = 180.0
+
+
+def _load_factor_now() -> float:
+    """How many times over the machine is booked (1-minute load per core, at least 1)."""
+    return max(1.0, os.getloadavg()[0] / (os.cpu_count() or 1))
+
+
+LOAD_AT_START = _load_factor_now()
 
 Run = tuple[Path, dict[str, Any], "subprocess.CompletedProcess[str]", float]
 
@@ -57,12 +66,13 @@ def test_every_stage_runs_green(smoke_run: Run) -> None:
     assert set(available_stages()) == set(STAGES), "a stage script is missing"
     assert results["mode"] == "smoke"
     assert set(results["stages"]) == set(STAGES)
+    load = max(_load_factor_now(), LOAD_AT_START)
     for stage, res in results["stages"].items():
         assert "error" not in res, f"{stage}: {res.get('error')}"
         assert res["mode"] == "smoke"
-        assert 0 < res["wall_s"] < STAGE_LIMIT_S, f"{stage} took {res['wall_s']:.1f} s in smoke mode"
+        assert 0 < res["wall_s"] < STAGE_LIMIT_S * load, f"{stage} took {res['wall_s']:.1f} s in smoke mode"
         assert (out / f"{stage}.json").is_file()
-    assert wall < TOTAL_LIMIT_S
+    assert wall < TOTAL_LIMIT_S * load
     assert results["machine"]["cores"] >= 1 and results["command"].startswith("auvlink bench")
 
 
@@ -101,6 +111,12 @@ def test_sim_and_decode_figures(smoke_run: Run) -> None:
     for peer in sim["peers"]:
         assert peer["identical"] is True, "culling changed the image bytes"
     decode = results["stages"]["decode"]
+    hostile = decode["hostile"]  # every framer on garbage and its worst patterns: a rate, a bounded buffer
+    from auvlink.framing.hostile import WORST_PATTERNS
+
+    assert {r["format"] for r in hostile} == set(WORST_PATTERNS)
+    assert len(hostile) == sum(1 + len(p) for p in WORST_PATTERNS.values())
+    assert all(r["bounded"] and r["mb_per_s"] > 0 and r["frames"] == 0 for r in hostile), hostile
     notes = decode.get("notes", {})
     if "pd0" not in notes:  # the capture is in ../shared/data
         bulk = [p for p in decode["peers"] if p["peer"] == "pd0 framer+decode (auvlink)"]

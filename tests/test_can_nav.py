@@ -6,7 +6,7 @@ import math
 
 import can
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from auvlink import formats
@@ -17,7 +17,6 @@ from auvlink.framing.can_frames import (
     FRAME_SIZE,
     MARKER,
     CanFrame,
-    CanFrameFramer,
     frame_problem,
     frame_to_message,
     message_to_frame,
@@ -186,60 +185,6 @@ def test_over_a_virtual_bus() -> None:
 
 
 # --- framer ------------------------------------------------------------------------------
-def nav_frames(draw: st.DrawFn, n: int) -> list[bytes]:
-    out = []
-    for _ in range(n):
-        name = draw(st.sampled_from(list(EXPECTED)))
-        msg = can_nav.database().get_message_by_name(name)
-        out.append(pack_frame(CanFrame(msg.frame_id, msg.encode(_raw_values(draw, name), scaling=False))))
-    return out
-
-
-@settings(derandomize=True, max_examples=120, suppress_health_check=[HealthCheck.too_slow])
-@given(st.data())
-def test_framer_fuzz(data: st.DataObject) -> None:
-    frames = nav_frames(data.draw, data.draw(st.integers(0, 12)))
-    parts: list[bytes] = []
-    intact: list[bytes] = []
-    for frame in frames:
-        garbage = data.draw(st.binary(max_size=20))
-        assume(MARKER not in garbage)
-        parts.append(garbage)
-        if data.draw(st.integers(0, 4)) == 0:
-            bit = data.draw(st.integers(0, 8 * FRAME_SIZE - 1))
-            damaged = bytearray(frame)
-            damaged[bit // 8] ^= 1 << (bit % 8)
-            parts.append(bytes(damaged))
-        else:
-            parts.append(frame)
-            intact.append(frame)
-    stream = b"".join(parts) + data.draw(st.binary(max_size=20))
-    cuts = data.draw(st.lists(st.integers(1, 40), max_size=30))
-    framer = CanFrameFramer()
-    out: list[bytes] = []
-    pos = 0
-    for n in cuts:
-        out += framer.feed(stream[pos : pos + n])
-        pos += n
-    out += framer.feed(stream[pos:]) + framer.flush()
-    it = iter(out)
-    assert all(any(f == o for o in it) for f in intact)  # every undamaged frame, in order
-    s = framer.stats
-    assert s.frames == len(out) and s.dropped_bytes + FRAME_SIZE * len(out) == len(stream)
-    assert all(frame_problem(o) is None for o in out)
-
-
-@settings(max_examples=100)
-@given(st.binary(max_size=300), st.integers(1, 50))
-def test_framer_garbage_never_raises(data: bytes, chunk: int) -> None:
-    framer = CanFrameFramer()
-    out: list[bytes] = []
-    for i in range(0, len(data), chunk):
-        out += framer.feed(data[i : i + chunk])
-    out += framer.flush()
-    assert framer.stats.dropped_bytes + FRAME_SIZE * len(out) == len(data)
-
-
 def test_registry_and_file_decode() -> None:
     fmt = formats.get("can")
     assert fmt.encoding == "can.dbc" and fmt.framer().format_name == "can"

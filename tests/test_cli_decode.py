@@ -70,3 +70,30 @@ def test_aris_summary(shared_data: Path, capsys: pytest.CaptureFixture[str]) -> 
     assert main(["decode", str(shared_data / "aris" / "sample.aris"), "--format", "aris", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["records"] == 6 and summary["t_first"].startswith("2013-06-14")
+
+
+def test_losses_reported_by_kind(shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Garbage, a frame with a bad checksum and a truncated tail are three separate figures (the tail is
+    not every dropped byte)."""
+    from auvlink import formats
+
+    good = formats.get("pd0").framer().feed((shared_data / "rdi" / "RDI_withBT.000").read_bytes())[:5]
+    damaged = bytearray(good[2])
+    damaged[len(damaged) // 2] ^= 0xFF
+    garbage = bytes(range(1, 101))  # no 0x7f: cannot start an ensemble
+    path = tmp_path / "crafted.pd0"
+    path.write_bytes(good[0] + garbage + good[1] + bytes(damaged) + good[3] + good[4][:300])
+    assert main(["decode", str(path), "--format", "pd0", "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    assert summary["records"] == 3
+    assert summary["losses"] == {"skipped_bytes": len(garbage) + len(damaged), "bad_checksums": 1,
+                                 "truncated_frames": 1, "truncated_tail_bytes": 300}
+    assert "1 frame(s) with a bad checksum" in captured.err
+    assert f"{len(garbage) + len(damaged)} bytes outside any whole frame" in captured.err
+    assert "a truncated frame of 300 bytes at the end" in captured.err
+    # a real capture: 9768 bytes of junk before the end, then a 512-byte partial ensemble
+    assert main(["decode", str(shared_data / "rdi" / "RDI_7f79.000"), "--format", "pd0"]) == 0
+    captured = capsys.readouterr()
+    assert "9768 bytes skipped outside frames, truncated tail 512 bytes" in captured.out
+    assert "a truncated frame of 512 bytes at the end" in captured.err

@@ -145,22 +145,3 @@ def test_stream_through_registry() -> None:
     assert fmt.to_json is not None and fmt.to_json(got[0])["beams"] == 96
 
 
-@settings(derandomize=True, max_examples=60, suppress_health_check=[HealthCheck.too_slow])
-@given(st.data())
-def test_framer_fuzz(data: st.DataObject) -> None:
-    frames = [didson.encode(didson.build(image(data.draw(st.integers(1, 8))), 1.0, 5.0, frame_index=i))
-              for i in range(data.draw(st.integers(0, 4)))]
-    parts = []
-    for raw in frames:
-        parts.append(data.draw(st.binary(max_size=50).filter(lambda g: b"DDF\x05" not in g)))
-        parts.append(raw)
-    stream = b"".join(parts)
-    cuts = data.draw(st.lists(st.integers(1, 2000), max_size=15))
-    framer = DidsonFramer()
-    out: list[bytes] = []
-    pos = 0
-    for n in cuts:
-        out += framer.feed(stream[pos : pos + n])
-        pos += n
-    out += framer.feed(stream[pos:]) + framer.flush()
-    assert out == frames

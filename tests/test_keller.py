@@ -7,8 +7,8 @@ import struct
 
 import numpy as np
 import pytest
-from framer_helpers import is_subsequence, run
-from hypothesis import HealthCheck, given, settings
+from framer_helpers import run
+from hypothesis import given
 from hypothesis import strategies as st
 
 from auvlink import formats
@@ -249,45 +249,3 @@ def test_framer_counts_bad_and_resyncs() -> None:
     assert f.stats.dropped_bytes + sum(map(len, out)) == len(stream)
 
 
-@st.composite
-def noisy_stream(draw: st.DrawFn) -> tuple[bytes, list[bytes], list[int]]:
-    recs = draw(st.lists(records, max_size=14))
-    garbage = st.one_of(st.binary(max_size=20), st.sampled_from([b"\x01\x30", b"\x01\x49\x01", b"\x49"]))
-    parts: list[bytes] = []
-    intact: list[bytes] = []
-    for r in recs:
-        frame = encode(r)
-        if draw(st.integers(0, 3)) == 0:
-            parts.append(draw(garbage))
-        if draw(st.integers(0, 5)) == 0:
-            bit = draw(st.integers(0, 8 * len(frame) - 1))
-            damaged = bytearray(frame)
-            damaged[bit // 8] ^= 1 << (bit % 8)
-            parts.append(bytes(damaged))
-        else:
-            parts.append(frame)
-            intact.append(frame)
-    parts.append(draw(st.binary(max_size=20)))
-    return b"".join(parts), intact, draw(st.lists(st.integers(1, 30), max_size=30))
-
-
-@settings(derandomize=True, max_examples=200, suppress_health_check=[HealthCheck.too_slow])
-@given(noisy_stream())
-def test_framer_fuzz(case: tuple[bytes, list[bytes], list[int]]) -> None:
-    stream, intact, cuts = case
-    f = KellerFramer()
-    out = run(f, stream, cuts)
-    assert is_subsequence(intact, out)
-    s = f.stats
-    assert s.bytes_in == len(stream) and s.frames == len(out)
-    assert s.dropped_bytes + sum(map(len, out)) == len(stream)
-    for frame in out:
-        decode(frame)
-
-
-@settings(max_examples=100)
-@given(st.binary(max_size=400), st.integers(1, 64))
-def test_framer_garbage_never_raises(data: bytes, chunk: int) -> None:
-    f = KellerFramer()
-    out = run(f, data, [chunk] * (len(data) // chunk))
-    assert f.stats.dropped_bytes + sum(map(len, out)) == len(data)

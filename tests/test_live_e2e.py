@@ -9,10 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from live_helpers import TRUTH_NE, simulate, start, threads, vehicle_config
+from live_helpers import SCENE, TRUTH_NE, classes_against_truth, simulate, start, threads, vehicle_config
 
 from auvlink.pipeline.live import LiveRun
-from auvlink.pipeline.process import MissionResult, run_log
+from auvlink.pipeline.process import run_log
+from auvlink.pipeline.results import MissionResult
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +45,8 @@ def test_live_finds_the_objects_in_time(live_run: tuple[Path, MissionResult]) ->
     # line after the simulator's start): the objects' absolute positions within 1.5 m, relative within 0.5 m
     assert len(dets) == 2 and (np.linalg.norm(found - truth, axis=1) < 1.5).all(), dets
     assert np.linalg.norm((found[1] - found[0]) - (truth[1] - truth[0])) < 0.5, dets
+    got, want = classes_against_truth(dets, SCENE)
+    assert got == want, f"detected classes {got}, the simulator placed {want}"
     summary = json.loads((out / "summary.json").read_text())
     assert summary["mode"] == "live" and summary["drops"] == {}
     lat = summary["latency"]["frame_end_to_end"]

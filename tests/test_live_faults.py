@@ -14,8 +14,9 @@ import pytest
 from live_helpers import TRUTH_NE, simulate, start, threads, vehicle_config
 
 from auvlink.pipeline.live import LiveRun
-from auvlink.pipeline.process import MissionResult, run_log
-from auvlink.sim.faults import Fault
+from auvlink.pipeline.process import run_log
+from auvlink.pipeline.results import MissionResult
+from auvlink.sim.faults import Fault, Injector
 from logs_format import MissionLogReader
 from logs_format.info import log_info
 
@@ -38,7 +39,7 @@ def faulty_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, MissionR
         lt, lres, lerr = start(pool, live.run, stop_live, "live")
         assert ready.wait(30.0), lerr
         stop_sim = threading.Event()
-        st, sres, serr = start(pool, lambda: simulate(cfg, stop_sim, faults=FAULTS), stop_sim, "sim")
+        st, sres, serr = start(pool, lambda: simulate(cfg, stop_sim, hook=Injector(FAULTS)), stop_sim, "sim")
         st.join(40.0)
         assert not serr and sres, serr
         stop_live.set()

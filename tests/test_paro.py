@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 
 import pytest
-from framer_helpers import is_subsequence, run
-from hypothesis import HealthCheck, given, settings
+from framer_helpers import run
+from hypothesis import given
 from hypothesis import strategies as st
 
 from auvlink import formats
@@ -157,14 +157,6 @@ def test_many_generated_lines() -> None:
 
 
 # --- framer ------------------------------------------------------------------------------
-def test_framer_one_byte_at_a_time() -> None:
-    lines = [READING, PT_RESPONSE] * 10
-    stream = b"".join(lines)
-    f = ParoFramer()
-    assert run(f, stream, [1] * len(stream)) == lines
-    assert f.stats.dropped_bytes == 0
-
-
 def test_framer_drops_noise_and_partial_lines() -> None:
     stream = READING[6:] + b"\x00\xff*0" + READING + b"junk\r\n" + PT_RESPONSE + READING[:9]
     f = ParoFramer()
@@ -179,43 +171,3 @@ def test_framer_garbage_tail_not_truncated() -> None:
     assert f.stats.truncated == 0
 
 
-@st.composite
-def noisy_stream(draw: st.DrawFn) -> tuple[bytes, list[bytes], list[int]]:
-    recs = draw(st.lists(records, max_size=10))
-    garbage = st.one_of(st.binary(max_size=30), st.sampled_from([b"*", b"*00", b"\r\n", b"*0001"]))
-    parts: list[bytes] = []
-    intact: list[bytes] = []
-    for r in recs:
-        frame = encode(r)
-        parts.append(draw(garbage))
-        if draw(st.integers(0, 5)) == 0:
-            bit = draw(st.integers(0, 8 * len(frame) - 1))
-            damaged = bytearray(frame)
-            damaged[bit // 8] ^= 1 << (bit % 8)
-            parts.append(bytes(damaged))
-        else:
-            parts.append(frame)
-            intact.append(frame)
-    parts.append(draw(st.binary(max_size=30)))
-    return b"".join(parts), intact, draw(st.lists(st.integers(1, 40), max_size=30))
-
-
-@settings(derandomize=True, max_examples=200, suppress_health_check=[HealthCheck.too_slow])
-@given(noisy_stream())
-def test_framer_fuzz(case: tuple[bytes, list[bytes], list[int]]) -> None:
-    stream, intact, cuts = case
-    f = ParoFramer()
-    out = run(f, stream, cuts)
-    assert is_subsequence(intact, out)
-    s = f.stats
-    assert s.bytes_in == len(stream) and s.frames == len(out)
-    assert s.dropped_bytes + sum(map(len, out)) == len(stream)
-    assert all(x.startswith(b"*") and x.endswith(b"\r\n") for x in out)
-
-
-@settings(max_examples=100)
-@given(st.binary(max_size=400), st.integers(1, 64))
-def test_framer_garbage_never_raises(data: bytes, chunk: int) -> None:
-    f = ParoFramer()
-    out = run(f, data, [chunk] * (len(data) // chunk))
-    assert f.stats.dropped_bytes + sum(map(len, out)) == len(data)

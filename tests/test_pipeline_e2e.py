@@ -1,4 +1,5 @@
-"""End to end on a small simulated mission: simulate -> log -> replay -> recon -> classify -> outputs."""
+"""End to end on a small simulated mission: simulate -> log -> replay -> recon -> classify -> outputs;
+the detections against the simulator's truth (positions and classes)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from live_helpers import classes_against_truth
 
 from auvlink.cli import main
 from auvlink.sim.mission import simulate_to_log
@@ -65,6 +67,8 @@ def test_replay_finds_the_objects(mission: Path, tmp_path: Path) -> None:
     dist = np.linalg.norm(found[:, None] - truth[None], axis=2)
     assert len(dets) == 2, dets
     assert (dist.min(axis=0) < 1.0).all(), dist
+    got, want = classes_against_truth(dets, SCENE)  # each detection named as the object it found
+    assert got == want, f"detected classes {got}, the simulator placed {want}"
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scores"]["detection_recall"] == 1.0
     assert summary["devices"]["sonar"]["decode_errors"] == 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from geometry_reference import beam_azimuth, highlight_point, paper_point, r_bs, row_range
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -98,3 +99,38 @@ def test_projection_stable_far_from_origin(beam: int, tilt: float, yaw: float, p
     assert np.abs(far - [north, east, 0.0] - near).max() < 1e-3
     on = g.flat_onset_ranges([[north, east, depth]], rot, [5.0])
     assert not np.any(np.isnan(on))
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(0, 60), st.floats(2, 30), st.integers(0, 95), st.floats(-2, 2), st.floats(-2, 2),
+       st.floats(-10, 10))
+def test_highlight_directions_match_independent_geometry(tilt: float, spread: float, beam: int, m_roll: float,
+                                                        m_pitch: float, m_yaw: float) -> None:
+    """Each beam's highlight ray in B: r_bs(t, rpy) [cos(s/2) cos th, cos(s/2) sin th, sin(s/2)]; the paper's ray."""
+    mount = (D(m_roll), D(m_pitch), D(m_yaw))
+    g = SonarGeometry.from_degrees(tilt, spread, mount_rpy=mount)
+    th = beam_azimuth(beam, D(29.0), 96)
+    assert g.azimuths[beam] == pytest.approx(th, abs=1e-12)
+    h = D(spread) / 2
+    want = r_bs(D(tilt), mount).apply([np.cos(h) * np.cos(th), np.cos(h) * np.sin(th), np.sin(h)])
+    assert np.allclose(g.highlight_directions("exact")[beam], want, atol=1e-12)
+    assert np.allclose(g.highlight_directions("paper")[beam], paper_point(1.0, th, tilt=D(tilt), spread=D(spread)),
+                       atol=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(0, 60), st.floats(4, 20), st.tuples(st.floats(-180, 180), st.floats(-30, 30), st.floats(-30, 30)),
+       st.tuples(st.floats(-2, 2), st.floats(-1, 1), st.floats(-1, 1)), st.tuples(st.floats(-1e5, 1e5),
+       st.floats(-1e5, 1e5), st.floats(0, 3000)), st.integers(0, 95), st.integers(0, 511), st.floats(0.5, 5),
+       st.floats(1, 40))
+def test_project_matches_independent_geometry(tilt: float, spread: float, ypr: tuple[float, float, float],
+                                              lever: tuple[float, float, float], pos: tuple[float, float, float],
+                                              beam: int, row: int, start: float, length: float) -> None:
+    """World point of (row, beam) for a random pose, mounting and range window, against the reference."""
+    g = SonarGeometry.from_degrees(tilt, spread, lever_arm=lever, window_start=start, window_length=length)
+    yaw, pitch, roll = D(ypr)
+    got = project(g, np.array([0]), np.array([beam]), np.array([row]), np.array([pos]),
+                  attitude([yaw], [pitch], [roll]))[0]
+    want = highlight_point(row_range(row, start, length, 512), beam_azimuth(beam, D(29.0), 96), tilt=D(tilt),
+                           spread=D(spread), position=np.array(pos), ypr=(yaw, pitch, roll), lever=np.array(lever))
+    assert np.abs(got - want).max() < 1e-7, (got, want)

@@ -1,9 +1,11 @@
-"""Highlight extraction on images built from known geometry."""
+"""Highlight extraction on images built from known geometry; points checked against an independent
+reference of the geometry (``tests/geometry_reference.py``, written from docs ARCHITECTURE.md)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from geometry_reference import beam_azimuth, highlight_point, row_range
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
@@ -43,10 +45,11 @@ def test_blob_closer_than_onset_gives_point_at_known_location() -> None:
     assert sorted(hp.beam.tolist()) == [10, 47, 48, 90]
     for beam, r in blobs:
         k = int(np.flatnonzero(hp.beam == beam)[0])
-        d_b = G.highlight_directions("exact")[beam]
-        truth = pos[0] + rot.apply(G.mounting.lever + r * d_b)[0]
-        assert np.linalg.norm(hp.points[k] - truth) <= 0.5 * G.bin_size + 1e-9
-        assert hp.row[k] == int(np.floor(G.range_to_row(r) + 0.5))
+        r_m = row_range(int(hp.row[k]), 1.0, 10.0, 512)
+        assert abs(r_m - r) <= 0.5 * 10.0 / 512 + 1e-9  # the blob's first row
+        truth = highlight_point(r_m, beam_azimuth(beam, D(29.0), 96), tilt=G.tilt, spread=G.spread,
+                                position=pos[0], ypr=(D(-150.0), D(3.0), D(-2.0)), lever=np.zeros(3))
+        assert np.linalg.norm(hp.points[k] - truth) < 1e-9
 
 
 def test_seabed_only_gives_no_points_and_skip_equals_full_search() -> None:
@@ -146,3 +149,33 @@ def test_skip_search_equals_full_search(seed: int, n_frames: int, n_bins: int, n
     b = first_returns(imgs, limits.astype(np.int64), thr, HighlightConfig(skip=False, min_run=run))
     assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
     assert np.array_equal(imgs, before)  # the caller's frames are never written
+
+
+@settings(max_examples=60, deadline=None)
+@given(tilt=st.floats(0, 50), spread=st.floats(6, 20), ypr=st.tuples(st.floats(-180, 180), st.floats(-25, 25),
+       st.floats(-25, 25)), mount=st.tuples(st.floats(-5, 5), st.floats(-5, 5), st.floats(-10, 10)),
+       lever=st.tuples(st.floats(-2, 2), st.floats(-1, 1), st.floats(-1, 1)),
+       north_east=st.tuples(st.floats(-5e4, 5e4), st.floats(-5e4, 5e4)), depth=st.floats(0, 500),
+       beam=st.integers(0, 95), row=st.integers(0, 500), mode=st.sampled_from(["exact", "paper"]))
+def test_extracted_point_matches_independent_geometry(
+        tilt: float, spread: float, ypr: tuple[float, float, float], mount: tuple[float, float, float],
+        lever: tuple[float, float, float], north_east: tuple[float, float], depth: float, beam: int, row: int,
+        mode: str) -> None:
+    """One bright return at (row, beam) of a dark frame: extract() puts it where the reference says."""
+    g = SonarGeometry.from_degrees(tilt, spread, lever_arm=lever, mount_rpy=tuple(D(mount)))
+    img = np.full((512, 96), 5, np.uint8)
+    img[row : row + 4, beam] = 220
+    pos = np.array([[north_east[0], north_east[1], depth]])
+    yaw, pitch, roll = D(ypr)
+    rot = attitude([yaw], [pitch], [roll])  # the product's R_WB; the reference builds its own
+    hp = extract(img, pos, rot, np.full((1, 96), np.inf), g, HighlightConfig(geometry=mode))  # type: ignore[arg-type]
+    assert hp.beam.tolist() == [beam] and hp.row.tolist() == [row]
+    r, theta = row_range(row, 1.0, 10.0, 512), beam_azimuth(beam, D(29.0), 96)
+    if mode == "exact":
+        truth = highlight_point(r, theta, tilt=D(tilt), spread=D(spread), position=pos[0], ypr=(yaw, pitch, roll),
+                                lever=np.array(lever), mount_rpy=tuple(D(mount)))
+    else:  # the paper's ray is defined in B itself (elevation t + s/2 below the body's horizontal)
+        e = D(tilt) + D(spread) / 2
+        p_b = np.array(lever) + r * np.array([np.cos(e) * np.cos(theta), np.cos(e) * np.sin(theta), np.sin(e)])
+        truth = highlight_point(0.0, 0.0, tilt=0.0, spread=0.0, position=pos[0], ypr=(yaw, pitch, roll), lever=p_b)
+    assert np.abs(hp.points[0] - truth).max() < 1e-6, (hp.points[0], truth)

@@ -22,9 +22,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from auvlink.evaluation.simeval import SimFrames, cluster_errors, evaluate, nav_drift, simulate
 from recon.far_side import FarSideConfig
 from recon.pipeline import ReconConfig
-from recon.simeval import SimFrames, cluster_errors, evaluate, simulate
 
 pytest.importorskip("open3d")
 
@@ -140,7 +140,6 @@ fps = 1.0
 def test_navigation_drift_with_default_noise(tmp_path: object) -> None:
     """Simulated log (default sensor noise, two turns), replayed through the codecs, dead-reckoned."""
     from auvlink.sim.scene import loads_scene
-    from recon.simeval import nav_drift
 
     d = nav_drift(loads_scene(NAV_SCENE), str(tmp_path))
     assert d["distance_m"] > 180.0

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from auvlink.codecs import can_nav, didson, dsp1760, keller, paro, pd0
+from auvlink.codecs import can_nav, didson, dsp1760, keller, paro, pd0, pd0_build
 from auvlink.errors import ConfigError
 from auvlink.sim.dvl import beam_directions
 from auvlink.sim.emit import block_events, device_formats
@@ -65,7 +65,7 @@ def test_dvl_noise_free_is_the_inverse_of_recon_frames() -> None:
     lever = np.asarray(run.settings.sensors.dvl_lever_arm)
     v_true = pose.velocity_body + np.cross(pose.angular_rate_body, lever)
     # through the wire: PD0 keeps mm/s
-    ens = [pd0.decode(pd0.encode(pd0.Pd0Ensemble.build(0, 0.0, bt_velocity_mps=row))) for row in d.bt_velocity]
+    ens = [pd0.decode(pd0.encode(pd0_build.build(0, 0.0, bt_velocity_mps=row))) for row in d.bt_velocity]
     bt = np.array([e.bt_velocity_mps for e in ens])
     v = rdi_ship_to_body(bottom_track_to_vehicle(bt[:, :3]))
     np.testing.assert_allclose(v, v_true, atol=0.0005 + 1e-12)

@@ -179,13 +179,13 @@ def test_server_discards_while_nobody_listens_and_takes_the_next_client(server: 
     with TcpClientTransport(url_of(server)) as second:
         server.write(b"2nd")
         assert read_exactly(second.read, 3) == b"2nd"
-        with TcpClientTransport(url_of(server)) as third:  # a newer client replaces the old one
+        with TcpClientTransport(url_of(server)) as third:  # refused while the second is live
             assert read_exactly(server.read, 1, timeout=0.3) == b""
-            server.write(b"3rd")
-            assert read_exactly(third.read, 3) == b"3rd"
+            server.write(b"more")
+            assert read_exactly(second.read, 4) == b"more"
             with pytest.raises(TransportOperationError, match="closed by the peer"):
-                read_exactly(second.read, 1, timeout=1.0)
-    assert server.clients == 3
+                read_exactly(third.read, 1, timeout=1.0)
+    assert server.clients == 2 and server.refused == 1
 
 
 def test_client_errors_and_reconnect(server: TcpServerTransport) -> None:

@@ -15,8 +15,8 @@ import os
 import sys
 from collections.abc import Sequence
 
-from auvlink import __version__
 from auvlink.errors import AuvlinkError
+from auvlink.version import __version__
 
 #: subcommand -> (module, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {

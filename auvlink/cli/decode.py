@@ -40,8 +40,9 @@ def run(args: argparse.Namespace) -> int:
     result = decode_path(args.file, fmt, emit)
     for problem in result.problems[:50]:
         print(f"auvlink decode: {args.file.name}: {problem}", file=sys.stderr)
-    if len(result.problems) > 50:
-        print(f"auvlink decode: ... and {len(result.problems) - 50} more problems", file=sys.stderr)
+    more = len(result.problems) + result.problems_left_out - 50
+    if more > 0:
+        print(f"auvlink decode: ... and {more} more problems", file=sys.stderr)
     if args.json:
         out.write(dumps(result.summary()) + "\n")
     elif not args.jsonl:

@@ -10,6 +10,9 @@ import argparse
 import time
 from pathlib import Path
 
+from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.sim.scene import load_default_scene, load_scene
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("demo-out"), help="output folder (default demo-out)")
@@ -19,14 +22,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from auvlink.atomic import check_output_dir, check_output_file
+    # lazy: Open3D, trimesh, SciPy and matplotlib (the parser imports every subcommand module)
 
     check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
     log = args.out / "mission.mcap"
     check_output_file(log, force=True, inputs=[args.scene], what="log")  # a leftover mission.mcap.partial
     from auvlink.cli.replay import process, scores_line
     from auvlink.sim.mission import simulate_to_log
-    from auvlink.sim.scene import load_default_scene, load_scene
 
     scene = load_scene(args.scene) if args.scene else load_default_scene()
     args.out.mkdir(parents=True, exist_ok=True)

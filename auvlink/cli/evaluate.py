@@ -6,7 +6,7 @@ through the inference path and writes ``DIR/eval.json`` (precision, recall, F1 p
 confusion matrix, look-alike pair confusions) and ``DIR/confusion.png``.
 
 ``--recon``: evaluate instead on clouds that recon reconstructs from simulated passes over single
-objects (:mod:`classify.recon_eval`: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets per
+objects (:mod:`auvlink.evaluation.recon_eval`: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets per
 class, seed 11; with ``--quick`` 3 headings x 1 tilt x 2 altitudes), cached under ``--cache``.
 
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
@@ -23,6 +23,9 @@ import argparse
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from auvlink.atomic import check_output_dir, check_output_file, write_text
+from auvlink.jsonutil import to_jsonable
 
 if TYPE_CHECKING:
     from classify.evaluate import EvalReport
@@ -44,13 +47,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from auvlink.atomic import check_output_dir, check_output_file, write_text
+    # lazy: PyTorch, Open3D and SciPy load only for this command (the parser imports every subcommand module)
+    from auvlink.evaluation.recon_eval import evaluate_recon, reconstruct_set, standard_passes
 
     check_output_dir(args.out, force=args.force)  # before any work (and before torch loads)
     if args.model is not None:
         for name in ("eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png"):
             check_output_file(args.out / name, force=True, inputs=[args.model], what="result")
-    from auvlink.jsonutil import to_jsonable
     from classify.dataset import default_cache_dir
     from classify.evaluate import plot_confusion
     from classify.infer import Classifier
@@ -60,8 +63,6 @@ def run(args: argparse.Namespace) -> int:
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     extra: dict[str, object] = {}
     if args.recon:
-        from classify.recon_eval import evaluate_recon, reconstruct_set, standard_passes
-
         clouds = reconstruct_set(clf.class_names, standard_passes(args.quick), progress=True, cache_dir=cache)
         report, missed = evaluate_recon(clf, clouds)
         extra = {"source": "recon clouds of simulated passes", "passes": len(clouds), "not_detected": missed}
@@ -84,8 +85,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Path | None, pointnet: EvalReport) -> None:
-    from auvlink.atomic import write_text
-    from auvlink.jsonutil import to_jsonable
+    # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)
     from classify.baseline2d import CNNConfig
     from classify.baseline_eval import run_baseline2d
     from classify.baseline_images import ImageSettings

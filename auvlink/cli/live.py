@@ -20,6 +20,8 @@ import threading
 from pathlib import Path
 from types import FrameType
 
+from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.cli.replay import scores_line
 from auvlink.errors import AuvlinkError
 
 
@@ -41,11 +43,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from auvlink.atomic import check_output_dir, check_output_file
-    from auvlink.cli.replay import scores_line
+    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.pipeline.live import LiveRun
-    from auvlink.pipeline.process import Detection
     from auvlink.pipeline.report import write_report
+    from auvlink.pipeline.results import Detection
 
     if not args.config.is_file():
         raise AuvlinkError(f"{args.config}: no such configuration file")

@@ -19,6 +19,10 @@ from pathlib import Path
 
 from auvlink.atomic import atomic_dir, check_output_dir, check_output_file
 from auvlink.jsonutil import to_jsonable
+from logs_format.export import export_log
+from logs_format.importers import import_can_log, import_serial_capture, is_can_log
+from logs_format.info import format_info, log_info
+from logs_format.profile import LogError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -47,8 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from logs_format.info import format_info, log_info
-
     info = log_info(args.log, decode=not args.no_decode, gap_factor=args.gap_factor)
     if args.json:
         print(json.dumps(to_jsonable(info), indent=2, allow_nan=False))
@@ -58,9 +60,6 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from logs_format.export import export_log
-    from logs_format.profile import LogError
-
     if not Path(args.log).is_file():
         raise LogError(f"no such log: {args.log}")
     check_output_dir(args.out, force=args.force)
@@ -78,9 +77,6 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    from logs_format.importers import import_can_log, import_serial_capture, is_can_log
-    from logs_format.profile import LogError
-
     if not Path(args.file).is_file():
         raise LogError(f"no such file: {args.file}")
     check_output_file(args.out, force=args.force, inputs=[args.file], what="log")

@@ -22,6 +22,9 @@ from typing import Any
 
 from auvlink.config import load_config
 from auvlink.driver import Driver
+from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
+from logs_format.profile import LogError
+from logs_format.writer import MissionLogWriter
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -39,10 +42,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def record(config_path: str, out: str, duration: float | None = None, *, compression: str = "zstd",
            flush_interval: float = 1.0, stop: threading.Event | None = None) -> dict[str, Any]:
     """Record until ``duration`` s passed or ``stop`` is set; returns per-device counters."""
-    from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
-    from logs_format.profile import LogError
-    from logs_format.writer import MissionLogWriter
-
     config = load_config(config_path)
     stop = stop or threading.Event()
     drivers = [Driver(d.name, d.format, d.url) for d in config.devices]

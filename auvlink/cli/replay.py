@@ -10,6 +10,7 @@ navigation, reconstruction, clustering and classification. DIR receives ``detect
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from auvlink.atomic import atomic_dir, check_output_dir
@@ -34,6 +35,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def process(log: Path, out: Path, *, speed: float | None, model: Path | None, classify: bool,
             report: bool, progress: bool, config: Path | None = None) -> dict[str, object]:
+    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
     from auvlink.pipeline.report import write_report
@@ -81,11 +83,22 @@ def scores_line(summary: dict[str, object]) -> str | None:
             f"classification P/R {s['classification_precision']:.2f}/{s['classification_recall']:.2f}")
 
 
+def loss_line(log: Path, summary: dict[str, object]) -> str | None:
+    """One line when the log was damaged or cut off (what was lost, in seconds and messages), else None."""
+    loss = summary.get("log_loss")
+    if not isinstance(loss, dict) or loss.get("state", "complete") == "complete":
+        return None
+    return f"auvlink: warning: {log}: {loss.get('summary')}"
+
+
 def run(args: argparse.Namespace) -> int:
     check_inputs(args.log, args.speed)
     check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
     summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
                       report=not args.no_report, progress=not args.quiet, config=args.config)
+    line = loss_line(args.log, summary)
+    if line:
+        print(line, file=sys.stderr)
     print(f"{summary['detections']} objects -> {args.out / 'detections.jsonl'}")
     line = engine_line(summary)
     if line and not args.quiet:

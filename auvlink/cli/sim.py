@@ -17,10 +17,10 @@ import signal
 import sys
 import threading
 from types import FrameType
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from auvlink.sim.scene import Scene
+from auvlink.atomic import check_output_file
+from auvlink.config import load_config
+from auvlink.sim.scene import Scene, load_default_scene, load_scene
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -39,14 +39,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _scene(path: str | None) -> Scene:
-    from auvlink.sim.scene import load_default_scene, load_scene
-
     return load_default_scene() if path is None else load_scene(path)
 
 
 def _to_log(args: argparse.Namespace) -> int:
-    from auvlink.atomic import check_output_file
-    from auvlink.sim.mission import simulate_to_log
+    from auvlink.sim.mission import simulate_to_log  # lazy: Open3D and trimesh (the parser imports every subcommand)
 
     check_output_file(args.out, force=args.force, inputs=[args.scene], what="log")
     result = simulate_to_log(_scene(args.scene), args.out, seed=args.seed, progress=not args.quiet,
@@ -62,8 +59,7 @@ def _to_log(args: argparse.Namespace) -> int:
 
 
 def _live(args: argparse.Namespace) -> int:
-    from auvlink.config import load_config
-    from auvlink.sim.live import serve
+    from auvlink.sim.live import serve  # lazy: Open3D and trimesh (the parser imports every subcommand)
 
     config = load_config(args.live)
     stop = threading.Event()

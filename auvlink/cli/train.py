@@ -12,6 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from auvlink.atomic import check_output_file
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("pointnet.pt"), help="checkpoint to write (default pointnet.pt)")
@@ -31,9 +33,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from auvlink.atomic import check_output_file
-
     check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
+    # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)
+    from auvlink.evaluation.recon_eval import recon_metrics
     from classify.config import load_train_settings, with_overrides
     from classify.dataset import default_cache_dir
     from classify.workflow import train_and_save
@@ -41,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
                               args.threads)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
-    out = train_and_save(settings, args.out, cache, progress=not args.quiet, recon_eval=args.recon_eval)
+    extra = {"recon": recon_metrics(cache, progress=not args.quiet)} if args.recon_eval else None
+    out = train_and_save(settings, args.out, cache, progress=not args.quiet, extra_evals=extra)
     m = out.metrics
     print(f"trained {m['epochs_run']} epochs in {m['train_seconds']:.1f} s (synthesis {m['synthesis_seconds']:.1f} s), "
           f"best epoch {m['best_epoch']}, validation accuracy {m['val_accuracy']:.3f}")

@@ -1,7 +1,7 @@
 """Sound Metrics ARIS recordings (``.aris``) and frames: 1024-byte headers + a beams x samples image.
 
 Specification followed: SoundMetrics aris-file-sdk (MIT licence): ``type-definitions/C/*Header.h``
-(layouts, :mod:`auvlink.codecs.aris_defs`), ``docs/understanding-aris-data.md`` (file structure,
+(layouts, :mod:`auvlink.framing.aris_defs`), ``docs/understanding-aris-data.md`` (file structure,
 ranges, beam order), ``common-code/FrameFuncs.c`` (ping mode -> beams), ``beam-width-metrics``.
 
 * A file is a :class:`ArisFileHeader` then frames; a frame is a 1024-byte header then
@@ -32,7 +32,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.codecs.aris_defs import (
+from auvlink.codecs.aris_lib import ArisFrame, HeaderValue, decode_as, encode_frame
+from auvlink.errors import DecodeError, EncodeError
+from auvlink.formats import WireFormat
+from auvlink.framing.aris import CUT, DROP, FRAME, WAIT, ArisFramer, frame_length, scan
+from auvlink.framing.aris_defs import (
     FILE_HEADER_DTYPE,
     FILE_HEADER_SIZE,
     PING_MODE_BEAMS,
@@ -41,10 +45,6 @@ from auvlink.codecs.aris_defs import (
     beam_table_name,
     beam_tables,
 )
-from auvlink.codecs.aris_lib import ArisFrame, HeaderValue, decode_as, encode_frame
-from auvlink.errors import DecodeError, EncodeError
-from auvlink.formats import WireFormat
-from auvlink.framing.aris import CUT, DROP, FRAME, WAIT, ArisFramer, frame_length, scan
 
 __all__ = [
     "PING_MODE_BEAMS", "WIRE_FORMAT", "ArisFile", "ArisFileHeader", "ArisFrame", "beam_azimuths_rad",
@@ -125,20 +125,46 @@ class ArisFile:
         return iter((self.header, self.frames))
 
 
+#: how far into a file :func:`read_file` looks for a displaced file header (leading damage)
+HEADER_SEARCH = 1 << 16
+
+
+def _file_header_at(buf: bytes | bytearray) -> int:
+    """Offset of the file header: 0 when the file starts with one; else the first ``DDF_05`` in the
+    first :data:`HEADER_SEARCH` bytes that a sane frame header follows 1024 bytes later (bytes were
+    inserted before the header); -1 when there is none (a bare stream, or a damaged file header)."""
+    if bytes(buf[:4]) == SIGNATURE:
+        return 0
+    p = buf.find(SIGNATURE, 0, HEADER_SEARCH)
+    while p >= 0:
+        if frame_length(buf, p + FILE_HEADER_SIZE) > 0:
+            return p
+        p = buf.find(SIGNATURE, p + 1, HEADER_SEARCH)
+    return -1
+
+
 def read_file(data: bytes | bytearray | memoryview) -> ArisFile:
     """Decode a whole ``.aris`` recording (or a bare frame stream). Bad content never raises (see
-    ``problems``); only data that starts with neither header does. Images view ``data``."""
+    ``problems``): leading damage, a damaged or cut file header, a damaged frame header cost only the
+    bytes they spoil, because frames are found by their header signature and sanity (resync). Only
+    data holding neither a file header nor any frame raises. Images view ``data``."""
     buf = data if isinstance(data, bytes | bytearray) else bytes(data)
     header: ArisFileHeader | None = None
-    start = 0
-    if bytes(buf[:4]) == SIGNATURE:
-        header, start = decode_file_header(buf), FILE_HEADER_SIZE
-    elif frame_length(buf, 0) <= 0:
-        raise DecodeError("aris: neither an ARIS file header nor an ARIS frame at offset 0", fmt="aris")
-    view = memoryview(buf)
-    frames: list[ArisFrame] = []
     problems: list[str] = []
     stats = {"frames": 0, "bytes_in": len(buf), "dropped_bytes": 0, "bad_checksums": 0, "truncated": 0}
+    start = _file_header_at(buf)
+    if start >= 0:
+        header = decode_file_header(buf[start:])
+        if start:
+            problems.append(f"{start} bytes at offset 0 before the file header are not ARIS data")
+            stats["dropped_bytes"] += start
+        start += FILE_HEADER_SIZE
+    else:
+        start = 0
+        if frame_length(buf, 0) <= 0:
+            problems.append("no intact file header or frame at offset 0 (damaged or cut): frames found by headers")
+    view = memoryview(buf)
+    frames: list[ArisFrame] = []
     pos, garbage_at = start, -1
     while pos < len(buf):
         step = scan(buf, pos, final=True)
@@ -168,6 +194,8 @@ def read_file(data: bytes | bytearray | memoryview) -> ArisFile:
         pos += step.n
     if garbage_at >= 0:
         problems.append(f"{len(buf) - garbage_at} bytes at offset {garbage_at} are not an ARIS frame")
+    if header is None and not frames and not stats["truncated"]:
+        raise DecodeError(f"aris: neither an ARIS file header nor an ARIS frame in {len(buf)} bytes", fmt="aris")
     stats["frames"] = len(frames)
     if header is not None and header.frame_count not in (0, len(frames)):
         problems.append(f"file header says {header.frame_count} frames, {len(frames)} found")

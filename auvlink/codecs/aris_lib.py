@@ -17,14 +17,14 @@ from typing import Any, Generic, TypeVar, overload
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.codecs.aris_defs import (
+from auvlink.errors import DecodeError, EncodeError
+from auvlink.framing.aris_defs import (
     FRAME_HEADER_DTYPE,
     FRAME_HEADER_SIZE,
     PING_MODE_BEAMS,
     SIGNATURE_U32,
     beam_azimuths_rad,
 )
-from auvlink.errors import DecodeError, EncodeError
 
 T = TypeVar("T")
 

@@ -26,11 +26,11 @@ import numpy as np
 import numpy.typing as npt
 
 from auvlink.codecs.aris import sensor_time, to_json
-from auvlink.codecs.aris_defs import FRAME_HEADER_DTYPE, MAX_SAMPLES_PER_BEAM, SIGNATURE_U32
 from auvlink.codecs.aris_lib import ArisFrame, decode_as, encode_frame
 from auvlink.errors import EncodeError
 from auvlink.formats import WireFormat
 from auvlink.framing.aris import DidsonFramer
+from auvlink.framing.aris_defs import FRAME_HEADER_DTYPE, MAX_SAMPLES_PER_BEAM, SIGNATURE_U32
 
 BEAMS = 96
 SAMPLES = 512

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from auvlink.codecs import pd0_defs as d
+from auvlink.codecs.pd0 import decode, encode
 from auvlink.codecs.pd0_records import BottomTrack, FixedLeader, Pd0Ensemble, Pd0Layout, VariableLeader
 from auvlink.errors import EncodeError
 
@@ -87,8 +88,6 @@ def build(
     Bottom track is included when ``bottom_track`` is True, or by default when ``bt_velocity_mps``
     or ``bt_range_m`` is given. Profile arrays are (cells, 4); each is included when given.
     """
-    from auvlink.codecs.pd0 import decode, encode
-
     if coordinate_system not in d.COORDINATE_SYSTEMS:
         raise EncodeError(f"pd0: coordinate system must be one of {d.COORDINATE_SYSTEMS}")
     profiles = {"velocity_mps": velocity_mps, "correlation": correlation,

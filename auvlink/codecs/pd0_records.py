@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import datetime as dt
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -272,10 +271,3 @@ class Pd0Ensemble(ValueEq):
     def raw_sections(self, type_id: int) -> list[bytes]:
         """The raw bytes of every undecoded section with this data-type id (e.g. 0x2022 NMEA)."""
         return [raw for tid, raw in self.other if tid == type_id]
-
-    @classmethod
-    def build(cls, ensemble_number: int, time: dt.datetime | float, **kwargs: Any) -> Pd0Ensemble:
-        """A new ensemble from scratch with Workhorse-like defaults (see :func:`pd0_build.build`)."""
-        from auvlink.codecs.pd0_build import build
-
-        return build(ensemble_number, time, **kwargs)

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from auvlink.codecs.aris_defs import (
+from auvlink.framing.aris_defs import (
     FRAME_HEADER_SIZE,
     MAX_SAMPLES_PER_BEAM,
     OFF_PING_MODE,
@@ -97,8 +97,11 @@ def scan(
     n = frame_length(buf, pos, beams_ok)
     if n < 0:
         return Step(WAIT)
-    if n == 0:
-        return Step(DROP, 1)
+    if n == 0:  # not a frame header: no frame can start before the next signature's header position
+        nxt = buf.find(SIGNATURE, sig + 1)
+        if nxt >= 0:
+            return Step(DROP, nxt - OFF_SIGNATURE - pos)
+        return Step(DROP, max(1, end - pos if final else end - pos - _KEEP))
     # Does another sane header start inside [pos + 1, pos + n)?
     lo = max(pos + OFF_SIGNATURE + 1, checked)
     hi = min(end, pos + n + OFF_SIGNATURE + len(SIGNATURE) - 1)
@@ -121,6 +124,7 @@ class ArisFramer(Framer):
     """Cuts ARIS frames (any ARIS ping mode) out of a byte stream."""
 
     format_name = "aris"
+    max_frame = FRAME_HEADER_SIZE + max(ALL_BEAMS) * MAX_SAMPLES_PER_BEAM
     #: beam counts accepted as sane (ARIS: 48, 64, 96, 128)
     beams_ok: frozenset[int] = ALL_BEAMS
 

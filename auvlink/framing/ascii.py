@@ -3,8 +3,9 @@
 A line ends with ``\\n`` (the instruments send CR LF). Each format says where in a terminated line
 its frame starts (:meth:`AsciiLineFramer._frame_start`): bytes before that are garbage and are
 dropped and counted, and a line with no frame in it is dropped whole. A run of bytes with no
-terminator longer than ``max_line`` is cut. At end of stream an unterminated tail that may be the
-beginning of a frame counts as truncated; other tails are dropped.
+terminator longer than ``max_line`` is cut, and a frame longer than ``max_line`` is dropped. At
+end of stream an unterminated tail that may be the beginning of a frame counts as truncated; other
+tails are dropped.
 
 (A small local base: the generic ``auvlink.framing.ascii_lines.LineFramer`` did not exist yet
 when these were written; these classes can move onto it without changing behaviour.)
@@ -22,6 +23,10 @@ class AsciiLineFramer(Framer):
 
     terminator: bytes = b"\n"
     max_line: int = 256
+
+    @property
+    def max_frame(self) -> int:  # type: ignore[override]
+        return self.max_line
 
     def _frame_start(self, line: bytes) -> int | None:
         """Offset in ``line`` (terminator included) where its frame starts, or None if it has none."""
@@ -51,7 +56,7 @@ class AsciiLineFramer(Framer):
                 return frames
             line = bytes(buf[: end + len(term)])
             start = self._frame_start(line)
-            if start is None:
+            if start is None or len(line) - start > self.max_line:  # no frame, or one longer than any
                 self._drop(buf, len(line))
                 continue
             self._drop(buf, start)

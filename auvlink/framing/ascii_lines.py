@@ -18,11 +18,22 @@ Behaviour, for any chunking of the input:
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 
 from auvlink.framing.base import Framer
 
 StartPredicate = Callable[[int], bool]
+
+
+def _start_pattern(start: bytes | StartPredicate | None) -> re.Pattern[bytes] | None:
+    """A regex matching one byte that may start a line (None: any byte): the scan runs in C."""
+    if start is None:
+        return None
+    allowed = bytes(start) if isinstance(start, bytes | bytearray) else bytes(b for b in range(256) if start(b))
+    if not allowed:
+        return re.compile(rb"(?!)")  # nothing may start a line
+    return re.compile(b"[" + b"".join(b"\\x%02x" % b for b in sorted(set(allowed))) + b"]")
 
 
 class LineFramer(Framer):
@@ -50,19 +61,19 @@ class LineFramer(Framer):
         if format_name is not None:
             self.format_name = format_name
         self._skipping = False  # inside a line longer than max_length, until its terminator
+        self._start_re = _start_pattern(start)
+        self._run_re = None if self._start_re is None else re.compile(self._start_re.pattern + b"+")
 
     def _find_start(self, buf: bytearray, pos: int, stop: int) -> int:
-        """Index of the first byte in ``buf[pos:stop]`` that may start a line, or -1."""
-        start = self.start
-        if start is None:
+        """Index of the first byte in ``buf[pos:stop]`` that may start a line, or -1 (one C scan)."""
+        if self._start_re is None:
             return pos if pos < stop else -1
-        if isinstance(start, bytes | bytearray):
-            hits = [i for i in (buf.find(c, pos, stop) for c in start) if i >= 0]
-            return min(hits) if hits else -1
-        for i in range(pos, stop):
-            if start(buf[i]):
-                return i
-        return -1
+        m = self._start_re.search(buf, pos, stop)
+        return m.start() if m else -1
+
+    @property
+    def max_frame(self) -> int:  # type: ignore[override]
+        return self.max_length + len(self.terminator)
 
     def reset(self) -> None:
         super().reset()
@@ -74,6 +85,9 @@ class LineFramer(Framer):
         n = len(buf)
         pos = 0  # bytes before pos are consumed
         dropped = 0
+        # The next terminator at or after ``t_from`` (-1: none in the buffer). Remembered, so a run of
+        # start characters with no terminator (``::::...``) costs one scan, not one per character.
+        t_next, t_from = -1, n + 1
         while pos < n:
             if self._skipping:  # inside an over-long line: discard through its terminator
                 t = buf.find(term, pos)
@@ -97,10 +111,16 @@ class LineFramer(Framer):
                 break
             dropped += s - pos
             pos = s
-            t = buf.find(term, s + 1 if self.start is not None else s)
+            first = s + 1 if self.start is not None else s
+            if not (t_from <= first and (t_next < 0 or t_next >= first)):
+                t_next, t_from = buf.find(term, first), first
+            t = t_next
             if self.resync_on_start:
                 nxt = self._find_start(buf, s + 1, t if t >= 0 else n)
                 if nxt >= 0:  # a new line began before this one ended: this one was cut short
+                    if nxt == s + 1 and self._run_re is not None:  # a run of starts: all but its last are cut
+                        run = self._run_re.match(buf, s, t if t >= 0 else n)
+                        nxt = run.end() - 1 if run else nxt
                     dropped += nxt - s
                     pos = nxt
                     continue

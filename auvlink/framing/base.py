@@ -10,12 +10,20 @@ whether ``data`` is exactly one whole, valid frame (the common case when a log r
 message, and for many packet transports). The answer must be exactly what :meth:`Framer._extract`
 would return, the same checks included (CRC, sanity); a framer that does not know returns None and
 the general path runs. The frame is then ``data`` itself (no copy).
+
+Bounds: every format has a largest frame (:attr:`Framer.max_frame`, bytes); after any feed at most
+that many bytes stay buffered (bytes that cannot start a frame are dropped and counted), and a large
+``data`` is framed in slices of :data:`FEED_SLICE` bytes, so a framer's memory does not grow with
+its input. Every framer is linear in its input: a scan position is never searched twice per feed.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+
+#: a feed larger than this is framed in slices of this many bytes (bounds the working memory)
+FEED_SLICE = 1 << 20
 
 
 @dataclass
@@ -27,6 +35,7 @@ class FramerStats:
     dropped_bytes: int = 0
     bad_checksums: int = 0
     truncated: int = 0
+    truncated_bytes: int = 0  # bytes of the partial frame(s) left at the end of the stream (part of dropped_bytes)
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)  # flat ints: a shallow copy (dataclasses.asdict costs ~50 us per frame)
@@ -37,6 +46,8 @@ class Framer(ABC):
 
     #: the format name this framer cuts (``"pd0"``, ``"dsp1760"``, ...)
     format_name: str = ""
+    #: the longest frame of the format in bytes: the most a framer keeps buffered between feeds
+    max_frame: int = 1 << 16
 
     def __init__(self) -> None:
         self._buf = bytearray()
@@ -50,8 +61,15 @@ class Framer(ABC):
             if whole is not None:
                 self.stats.frames += 1
                 return [whole]
-        self._buf += data
-        frames = self._extract(self._buf)
+        if len(data) <= FEED_SLICE:
+            self._buf += data
+            frames = self._extract(self._buf)
+        else:
+            frames = []
+            view = memoryview(data)
+            for k in range(0, len(data), FEED_SLICE):
+                self._buf += view[k : k + FEED_SLICE]
+                frames += self._extract(self._buf)
         self.stats.frames += len(frames)
         return frames
 
@@ -61,6 +79,7 @@ class Framer(ABC):
         self.stats.frames += len(frames)
         if self._buf:
             self.stats.truncated += 1
+            self.stats.truncated_bytes += len(self._buf)
             self.stats.dropped_bytes += len(self._buf)
             self._buf.clear()
         return frames

@@ -183,6 +183,7 @@ class CanFrameFramer(Framer):
     """Cuts 16-byte raw CAN frames; an invalid window is dropped one byte at a time."""
 
     format_name = "can"
+    max_frame = FRAME_SIZE
 
     def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
         if len(data) == FRAME_SIZE and data[6:8] == MARKER and frame_problem(data) is None:
@@ -195,7 +196,8 @@ class CanFrameFramer(Framer):
         end = len(buf)
         dropped = 0
         while end - pos >= FRAME_SIZE:
-            if buf[pos + 6 : pos + 8] == MARKER and frame_problem(buf, pos) is None:
+            if (buf[pos + 6] == 0xA5 and buf[pos + 7] == 0x5A and not buf[pos + 4] & ~_KNOWN_FLAGS
+                    and buf[pos + 5] <= MAX_DATA and frame_problem(buf, pos) is None):  # cheap checks first
                 out.append(bytes(buf[pos : pos + FRAME_SIZE]))
                 pos += FRAME_SIZE
                 continue

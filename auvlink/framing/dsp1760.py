@@ -37,6 +37,7 @@ class Dsp1760Framer(Framer):
     """Cuts a byte stream into whole, CRC-checked 36-byte DSP-1760 messages."""
 
     format_name = "dsp1760"
+    max_frame = FRAME_SIZE
 
     def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
         if len(data) == FRAME_SIZE and data[:4] == HEADER and crc_ok(data):

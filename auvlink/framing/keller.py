@@ -15,6 +15,9 @@ resumes one byte later. Bytes with an unknown function are dropped and counted.
 
 from __future__ import annotations
 
+import re
+
+from auvlink.crc import _CRC16_MODBUS as _CRC16_TABLE
 from auvlink.crc import crc16_modbus
 from auvlink.framing.base import Framer
 
@@ -38,49 +41,77 @@ def crc_ok(frame: bytes | bytearray | memoryview) -> bool:
 
 
 def _matches(buf: bytearray | bytes, start: int = 0) -> list[int]:
-    """Lengths of the frames at ``buf[start:]`` whose bytes are all present and whose CRC matches."""
-    if len(buf) - start < 2:
+    """Lengths of the frames at ``buf[start:]`` whose bytes are all present and whose CRC matches.
+
+    One incremental CRC pass serves every candidate length (they share their first bytes)."""
+    size = len(buf)
+    if size - start < 2:
         return []
-    lengths = FRAME_LENGTHS.get(buf[start + 1], ())
-    return [n for n in lengths if start + n <= len(buf) and crc_ok(buf[start : start + n])]
+    out: list[int] = []
+    crc, done, table = 0xFFFF, start, _CRC16_TABLE
+    for n in FRAME_LENGTHS.get(buf[start + 1], ()):
+        end = start + n
+        if end > size:
+            break
+        for b in buf[done : end - 2]:
+            crc = (crc >> 8) ^ table[(crc ^ b) & 0xFF]
+        done = end - 2
+        if crc == buf[end - 2] << 8 | buf[end - 1]:
+            out.append(n)
+    return out
 
 
-def _choose(buf: bytearray, matches: list[int]) -> int:
+def _choose(buf: bytearray, matches: list[int], start: int = 0) -> int:
     """Among several CRC-valid lengths, prefer one that the next frame confirms, else the shortest."""
     if len(matches) > 1:
         for n in matches:
-            if len(buf) == n or _matches(buf, n):
+            if len(buf) - start == n or _matches(buf, start + n):
                 return n
     return matches[0]
+
+
+#: one byte that is a known function code: the scan jumps over everything else in C
+_FUNCTION = re.compile(b"[" + b"".join(b"\\x%02x" % f for f in sorted(FRAME_LENGTHS)) + b"]")
 
 
 class KellerFramer(Framer):
     """Cuts a stream of Keller bus requests and responses into whole, CRC-checked frames."""
 
     format_name = "keller"
+    max_frame = 2 * MAX_FRAME  # two CRC-valid lengths wait for the next frame to tell
 
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         frames: list[bytes] = []
-        while len(buf) >= 2:
-            lengths = FRAME_LENGTHS.get(buf[1])
-            if lengths is None:
-                self._drop(buf, 1)
+        n = len(buf)
+        p = 0  # bytes before p are consumed (one scan position, never revisited)
+        dropped = 0
+        while n - p >= 2:
+            lengths = FRAME_LENGTHS.get(buf[p + 1])
+            if lengths is None:  # jump to the byte before the next known function code
+                m = _FUNCTION.search(buf, p + 2)
+                q = m.start() - 1 if m else n - 1
+                dropped += q - p
+                p = q
                 continue
-            if not final and len(buf) < lengths[-1]:
+            if not final and n - p < lengths[-1]:
                 break  # wait until every candidate length could be complete
-            matches = _matches(buf)
+            matches = _matches(buf, p)
             if not matches:
-                if len(buf) >= lengths[-1]:
+                if n - p >= lengths[-1]:
                     self.stats.bad_checksums += 1
-                elif not any(_matches(buf, i) for i in range(1, len(buf) - 1)):
+                elif not any(_matches(buf, i) for i in range(p + 1, n - 1)):
                     break  # end of stream inside a frame: flush counts it as truncated
-                self._drop(buf, 1)
+                dropped += 1
+                p += 1
                 continue
-            if len(matches) > 1 and not final and len(buf) < matches[-1] + MAX_FRAME:
+            if len(matches) > 1 and not final and n - p < matches[-1] + MAX_FRAME:
                 break  # two lengths pass their CRC: wait for the next frame to tell which is right
-            n = _choose(buf, matches)
-            frames.append(bytes(buf[:n]))
-            del buf[:n]
-        if final and len(buf) == 1:
-            self._drop(buf, 1)  # a lone byte cannot be the start of a frame
+            k = _choose(buf, matches, p)
+            frames.append(bytes(buf[p : p + k]))
+            p += k
+        if final and n - p == 1:
+            dropped += 1  # a lone byte cannot be the start of a frame
+            p += 1
+        self.stats.dropped_bytes += dropped
+        del buf[:p]
         return frames

@@ -4,8 +4,11 @@ An ensemble starts ``7F 7F``, then nbytes (u16 LE, the checksum's 2 bytes not co
 byte, the number of data types and their u16 offsets; it ends with the u16 sum of bytes
 [0, nbytes). The framer finds a header with ``bytes.find``, rejects implausible ones at once
 (nbytes < 6 or above ``max_nbytes``, offsets table not increasing inside the ensemble), waits for
-nbytes + 2 bytes and checks the sum. A failed sum counts in ``stats.bad_checksums`` and the
-search resumes one byte after that header, so an ensemble overlapping a damaged one is kept.
+nbytes + 2 bytes and checks the sum. Sums of long candidates come from a running prefix sum of the
+buffer (kept across feeds), so a stream of plausible headers that each claim 64 KiB costs O(1) per
+candidate, not O(nbytes): the framer stays linear in its input whatever the headers claim. A failed
+sum counts in ``stats.bad_checksums`` and the search resumes one byte after that header, so an
+ensemble overlapping a damaged one is kept.
 
 WorkHorse waves records (``7F 79``, same length and checksum rule) interleaved with ensembles
 are verified and skipped whole: their bytes count as dropped and :attr:`Pd0Framer.waves_records`
@@ -15,6 +18,7 @@ ensemble follows it (then it was a false header and is dropped).
 
 from __future__ import annotations
 
+import re
 from zlib import adler32
 
 import numpy as np
@@ -24,6 +28,9 @@ from auvlink.framing.base import Framer
 _PD0 = 0x7F
 _WAVES = 0x79
 _CHUNK = 256  # 255 * 256 + 1 < 65521: Adler-32's A of a chunk is exactly 1 + its byte sum
+_RUN = 10  # a header starting with ten 0x7F bytes is impossible (its first offset lies past nbytes)
+_RUN_TAIL = b"\x7f" * (_RUN - 1)
+_NOT_7F = re.compile(b"[^\x7f]")
 _NUMPY_FROM = 2048  # above this many bytes one numpy reduction beats the chunked Adler-32
 
 
@@ -52,6 +59,52 @@ class Pd0Framer(Framer):
         #: 0x7F79 waves records skipped whole (their bytes are also in ``stats.dropped_bytes``)
         self.waves_records = 0
         self._good_headers: set[bytes] = set()  # headers already found plausible (they repeat)
+        # running prefix sum (mod 65536) of the buffer: _cs[_lo + k] = sum of buf[:k] (+ a constant)
+        self._cs = np.zeros(0, np.uint16)
+        self._lo = self._hi = 0
+
+    def reset(self) -> None:
+        super().reset()
+        self._lo = self._hi = 0
+
+    def flush(self) -> list[bytes]:
+        frames = super().flush()
+        self._lo = self._hi = 0  # the buffer was cleared
+        return frames
+
+    def _sum(self, buf: bytearray, i: int, n: int) -> int:
+        """RDI checksum of ``buf[i:i + n]``; long spans from the running prefix sum (O(1) each)."""
+        if n <= _NUMPY_FROM:
+            return sum16(buf, i, n)
+        covered = self._hi - self._lo - 1  # bytes of buf the prefix covers (-1: none yet)
+        if covered < 0:
+            self._lo = self._hi = 0
+            covered = 0
+            need = len(buf) + 1
+        else:
+            need = len(buf) - covered
+        if need > 0:
+            live = self._hi - self._lo
+            if self._hi + need > len(self._cs):  # compact (and grow): amortized O(1) per byte
+                cs = np.zeros(max(len(self._cs), 2 * (live + need)), np.uint16)
+                cs[:live] = self._cs[self._lo : self._hi]
+                self._cs, self._lo, self._hi = cs, 0, live
+            if self._hi == self._lo:
+                self._cs[self._hi] = 0
+                self._hi += 1
+                need -= 1
+            view = np.frombuffer(buf, np.uint8, need, covered)
+            run = np.cumsum(view, dtype=np.uint16)
+            del view  # release the buffer export so the bytearray can be resized again
+            run += self._cs[self._hi - 1]
+            self._cs[self._hi : self._hi + need] = run
+            self._hi += need
+        a = self._lo + i
+        return (int(self._cs[a + n]) - int(self._cs[a])) & 0xFFFF
+
+    @property
+    def max_frame(self) -> int:  # type: ignore[override]
+        return self.max_nbytes + 2
 
     def _plausible(self, buf: bytes | bytearray, i: int, nbytes: int, n: int) -> bool | None:
         """Header sanity at ``i``: True / False, or None when more bytes are needed to tell."""
@@ -63,6 +116,13 @@ class Pd0Framer(Framer):
             return False
         if i + table_end > n:
             return None
+        prev = table_end - 2
+        for k in range(min(ndt, 2)):  # the first offsets alone reject most false headers (0x7F7F...)
+            o = i + 6 + 2 * k
+            off = buf[o] | buf[o + 1] << 8
+            if off < prev + 2 or off + 2 > nbytes:
+                return False
+            prev = off
         key = bytes(buf[i + 2 : i + table_end])
         if key in self._good_headers:
             return True
@@ -101,6 +161,10 @@ class Pd0Framer(Framer):
             if i < 0:
                 break
             search = i + 1
+            if buf[i + 1 : i + _RUN] == _RUN_TAIL:  # ten 0x7F: nbytes 0x7F7F < first offset + 2, no header
+                m = _NOT_7F.search(buf, i + _RUN)
+                search = (m.start() if m else n) - _RUN + 1  # every start in the run is one of these
+                continue
             if i + 1 < n and buf[i + 1] != _PD0 and buf[i + 1] != _WAVES:
                 continue
             end = -1  # unknown until the header is whole
@@ -120,7 +184,7 @@ class Pd0Framer(Framer):
                 if pending < 0:
                     pending = i
                 continue
-            if sum16(buf, i, nbytes) != buf[end - 2] | buf[end - 1] << 8:
+            if self._sum(buf, i, nbytes) != buf[end - 2] | buf[end - 1] << 8:
                 if pending < 0:
                     stats.bad_checksums += 1
                 continue
@@ -136,4 +200,7 @@ class Pd0Framer(Framer):
         keep = pending if pending >= 0 else (wait if wait >= 0 else n)
         stats.dropped_bytes += keep - pos
         del buf[:keep]
+        self._lo += keep
+        if self._lo >= self._hi:  # the prefix no longer covers the buffer's front: start afresh
+            self._lo = self._hi = 0
         return frames

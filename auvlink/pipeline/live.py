@@ -22,6 +22,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -32,9 +33,11 @@ from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.outputs import DetectionStream, write_outputs
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
-from auvlink.pipeline.process import LIVE_META, MissionResult, result_of
+from auvlink.pipeline.process import LIVE_META, result_of
+from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.records import Sample
+from logs_format.writer import MissionLogWriter
 
 SONAR_FORMATS = ("didson", "aris")
 
@@ -45,8 +48,9 @@ class LiveRun:
     def __init__(self, config: VehicleConfig | str | Path, out_dir: Path, *, log_path: Path | None = None,
                  duration: float | None = None, stop: threading.Event | None = None, classify: bool = True,
                  model: Path | None = None, sonar_queue: int = 10, engine_config: EngineConfig | None = None,
-                 compression: str = "zstd", on_detection: Any = None, ready: threading.Event | None = None,
-                 backoff_max: float = 5.0, on_ready: Any = None) -> None:
+                 compression: str = "zstd", on_detection: Callable[[Detection], None] | None = None,
+                 ready: threading.Event | None = None,
+                 backoff_max: float = 5.0, on_ready: Callable[[], None] | None = None) -> None:
         self.config = config if isinstance(config, VehicleConfig) else load_config(config)
         self.out_dir = Path(out_dir)
         self.log_path = Path(log_path) if log_path is not None else self.out_dir / "mission.mcap"
@@ -107,8 +111,6 @@ class LiveRun:
 
     # ------------------------------------------------------------------ the run
     def run(self) -> MissionResult:
-        from logs_format.writer import MissionLogWriter
-
         t_start = time.perf_counter()
         try:
             self.out_dir.mkdir(parents=True, exist_ok=True)
@@ -117,7 +119,7 @@ class LiveRun:
         setup = MissionSetup.from_config(self.config)
         stream = DetectionStream(self.out_dir)
 
-        def on_detection(det: Any) -> None:
+        def on_detection(det: Detection) -> None:
             stream(det)
             if self._user_on_detection is not None:
                 self._user_on_detection(det)

@@ -19,8 +19,9 @@ import numpy as np
 from auvlink.atomic import atomic_path
 from auvlink.errors import OutputError
 from auvlink.jsonutil import to_jsonable
-from auvlink.pipeline.process import Detection, MissionResult
+from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.scoring import score_detections
+from recon.ply import write_ply
 
 
 def object_ply_name(det: Detection) -> str:
@@ -39,8 +40,6 @@ class DetectionStream:
         self.error: OSError | None = None  # the first write that failed (disk full): streaming stops there
 
     def __call__(self, det: Detection) -> None:
-        from recon.ply import write_ply
-
         if self.error is not None:
             return
         name = object_ply_name(det)
@@ -70,8 +69,6 @@ def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = Fa
     """Write the files of ARCHITECTURE.md's output folder; returns the summary dict. A file that cannot
     be written raises :class:`OutputError`; with ``keep_going`` (a live run: write what can be written)
     the others are still written and the summary lists the failed ones under ``unwritten``."""
-    from recon.ply import write_ply
-
     unwritten: list[str] | None = [] if keep_going else None
     out_dir.mkdir(parents=True, exist_ok=True)
     obj_dir = out_dir / "objects"
@@ -97,7 +94,7 @@ def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = Fa
         "engine": result.engine,
         "recon": result.recon_stats,
         "devices": result.replay_stats,
-        "log_loss": result.loss,
+        "log_loss": result.loss_json(),
         "scores": score_detections(result),
     }
     if unwritten is not None:

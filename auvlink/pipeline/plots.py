@@ -11,8 +11,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
+from scipy.spatial.transform import Rotation
 
-from auvlink.pipeline.process import MissionResult
+from auvlink.pipeline.results import MissionResult
+from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows
 
 
 def _png(fig: Figure) -> bytes:
@@ -74,10 +76,6 @@ def object_views(result: MissionResult, max_objects: int = 12) -> bytes | None:
 
 def sonar_strip(result: MissionResult) -> bytes | None:
     """Sonar frames near the detections, with the highlight-extension returns drawn."""
-    from scipy.spatial.transform import Rotation
-
-    from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows
-
     g = result.geometry
     if not result.strip or g is None:
         return None

@@ -10,7 +10,10 @@ through ``on_event`` (``port_lost``), and reopened after 0.2, 0.4, 0.8 ... up to
 inside a slow ``open``) has nothing in hand, so it holds nobody up meanwhile:
 :meth:`PortReader.holds_from` gives the consumer's own clock reading then. A port that stays open
 but silent for ``silence_s`` (a stalled socket, a sensor that stopped talking) gives ``port_silent``,
-and ``port_resumed`` when bytes come again. Errors are never printed: they are events.
+and ``port_resumed`` when bytes come again. What the transport itself noted (a TCP connection
+refused while the instrument is connected, a takeover, a client that connected or left) is passed
+on as events of the same kind (:meth:`~auvlink.transports.base.Transport.take_events`). Errors are
+never printed: they are events.
 """
 
 from __future__ import annotations
@@ -107,11 +110,13 @@ class PortReader:
                 try:
                     samples = self.driver.read(self.read_timeout)
                 except TransportError as exc:
+                    self._transport_events()
                     self.failures += 1
                     lost_at = now_ns()
                     self._event("port_lost", error=str(exc))
                     self._close()
                     continue
+                self._transport_events()
                 t, got = now_ns(), self.driver.transport.bytes_read
                 if got != last_bytes:
                     if silent:
@@ -130,6 +135,12 @@ class PortReader:
         finally:
             self._close()
             self.watermark_ns = 2**63 - 1  # a stopped reader holds nobody up
+
+    def _transport_events(self) -> None:
+        """Pass on what the transport noted since the last read (each as a port event)."""
+        for ev in self.driver.transport.take_events():
+            kind = str(ev.pop("kind", "transport_event"))
+            self._event(kind, **ev)
 
     def holds_from(self, now: int) -> int:
         """The time before which this device has handed everything over, for a consumer who read the clock

@@ -8,10 +8,10 @@ import html
 from pathlib import Path
 from typing import Any
 
-from auvlink import __version__
 from auvlink.atomic import write_text
 from auvlink.pipeline import plots
-from auvlink.pipeline.process import MissionResult
+from auvlink.pipeline.results import MissionResult
+from auvlink.version import __version__
 
 _CSS = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}
 table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}
@@ -35,6 +35,18 @@ def _table(rows: list[dict[str, Any]]) -> str:
 
     body = "".join("<tr>" + "".join(f"<td>{cell(r.get(c))}</td>" for c in cols) + "</tr>" for r in rows)
     return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _integrity(loss: dict[str, Any]) -> list[str]:
+    """The log-integrity section: one line, and the lost spans (kind, where, seconds, messages) if any."""
+    parts = [f"<p>Log integrity: {html.escape(str(loss.get('summary') or 'complete'))}</p>"]
+    spans = loss.get("spans") or []
+    if spans:
+        parts.append(_table([{"lost": s["kind"], "byte": s["offset"], "bytes": s["bytes"],
+                              "seconds": "?" if s["seconds"] is None else s["seconds"],
+                              "messages": "?" if s["messages"] is None else s["messages"], "reason": s["reason"]}
+                             for s in spans[:200]]))
+    return parts
 
 
 def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) -> Path:
@@ -71,7 +83,7 @@ def write_report(result: MissionResult, summary: dict[str, Any], out_dir: Path) 
         "<h3>Events (port gaps, reopenings, errors)</h3>", _table(result.events[:200]),
         "<h2>Reconstruction</h2>",
         _table([{k: v for k, v in result.recon_stats.items() if not isinstance(v, dict)}]),
-        f"<p>Log integrity: {html.escape(result.loss or 'complete')}</p>",
+        *_integrity(result.loss_json()),
         "</body></html>",
     ]
     return write_text(out_dir / "report.html", "\n".join(parts))  # atomic: never a half report

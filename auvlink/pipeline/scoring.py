@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from auvlink.pipeline.process import MissionResult
+from auvlink.pipeline.results import MissionResult
 
 
 def match(det_xy: np.ndarray, truth_xy: np.ndarray, radius: float) -> list[tuple[int, int, float]]:

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from auvlink.codecs import pd0
+from auvlink.codecs import pd0, pd0_build
 from auvlink.sim.noise import DvlNoise, stream_rng
 from auvlink.sim.seabed import SeabedSurface
 from auvlink.sim.settings import SensorSettings
@@ -124,7 +124,7 @@ def simulate_dvl(traj: LawnmowerTrajectory, seabed: SeabedSurface, t: F64, senso
 
 def pd0_ensemble(series: DvlSeries, k: int, start_s: float, sound_speed: float = 1500.0) -> pd0.Pd0Ensemble:
     """Ping ``k`` as the PD0 ensemble a receiver decodes (ship coordinates, bottom track only)."""
-    return pd0.Pd0Ensemble.build(
+    return pd0_build.build(
         k + 1, start_s + float(series.t[k]),
         heading_rad=float(series.heading[k]), pitch_rad=float(series.pitch[k]),
         roll_rad=float(series.roll[k]), temperature_c=float(series.temperature_c[k]),

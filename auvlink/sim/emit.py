@@ -30,6 +30,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from auvlink.codecs import can_nav, didson, dsp1760, keller, paro
 from auvlink.codecs import pd0 as pd0_codec
@@ -180,8 +181,6 @@ def block_events(m: Measurements, t0: float, t1: float, renderer: SonarRenderer 
         s = m.sonar
         i0, i1 = (int(i) for i in np.searchsorted(s.t, [t0, t1], side="left"))
         if i1 > i0:
-            from scipy.spatial.transform import Rotation
-
             sc = renderer.scene.sonar
             frames = renderer.render_sequence(s.position[i0:i1], Rotation.from_matrix(s.r_wb[i0:i1]),
                                               m.seed, first_frame=i0)

@@ -1,14 +1,14 @@
-"""Faults injected into ``auvlink sim --live`` serving (:func:`auvlink.sim.live.serve`, ``faults=``):
+"""Faults injected into ``auvlink sim --live`` serving (:func:`auvlink.sim.live.serve`, ``hook=Injector(...)``):
 what the live-loop tests need to check that ``auvlink live`` survives a port that goes and comes
-back, garbage in a stream and a stalled socket."""
+back, garbage in a stream and a stalled socket. The injector is a :class:`~auvlink.sim.live.PortHook`:
+it acts on the ports only through their public methods."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
 
-from auvlink.config import DeviceConfig
-from auvlink.sim.live import Port, _close, _open, _send
+from auvlink.sim.live import Port
 
 
 @dataclass(frozen=True)
@@ -26,42 +26,45 @@ class Fault:
 
 
 class Injector:
-    """Applies the faults as mission time passes; frames go through :meth:`send`."""
+    """Applies the faults as mission time passes (a :class:`~auvlink.sim.live.PortHook`)."""
 
-    def __init__(self, faults: Any, devices: dict[str, DeviceConfig], ports: dict[str, Port]) -> None:
+    def __init__(self, faults: Iterable[Fault]) -> None:
         self.todo = sorted(faults, key=lambda f: f.at_s)
         self.active: list[Fault] = []
-        self.roles = {dev.name: role for role, dev in devices.items()}
-        self.devices, self.ports = devices, ports
+        self.ports: dict[str, Port] = {}  # device name -> its port
         self.down: set[str] = set()
         self.held: dict[str, list[bytes]] = {}
+
+    def start(self, ports: Mapping[str, Port]) -> None:
+        self.ports = {p.device: p for p in ports.values()}
 
     def tick(self, t: float) -> None:
         while self.todo and self.todo[0].at_s <= t:
             f = self.todo.pop(0)
-            role = self.roles[f.device]
+            port = self.ports[f.device]
             if f.kind == "close":
-                _close(self.ports[role])
-                self.down.add(role)
+                port.close()
+                self.down.add(f.device)
             elif f.kind == "garbage":
-                self.ports[role].sink.write(f.data)
+                port.write_raw(f.data)
             elif f.kind == "stall":
-                self.held[role] = []
+                self.held[f.device] = []
             self.active.append(f)
         for f in [f for f in self.active if f.at_s + f.duration_s <= t]:
             self.active.remove(f)
-            role = self.roles[f.device]
+            port = self.ports[f.device]
             if f.kind == "close":
-                self.down.discard(role)
-                self.ports[role] = _open(role, self.devices[role])
+                self.down.discard(f.device)
+                port.open()
             elif f.kind == "stall":
-                for raw in self.held.pop(role, []):
-                    _send(self.ports[role], raw)
+                for raw in self.held.pop(f.device, []):
+                    port.send(raw)
 
-    def send(self, role: str, raw: bytes) -> None:
-        if role in self.down:
-            self.ports[role].dropped += 1
-        elif role in self.held:
-            self.held[role].append(raw)
+    def send(self, t_s: float, port: Port, raw: bytes) -> None:
+        self.tick(t_s)
+        if port.device in self.down:
+            port.dropped += 1
+        elif port.device in self.held:
+            self.held[port.device].append(raw)
         else:
-            _send(self.ports[role], raw)
+            port.send(raw)

@@ -19,26 +19,37 @@ The configuration also describes the vehicle, so it wins over the scene: the DVL
 lever arms, the DVL mounting angles, the sonar's lever arm, tilt, spread and window, and the
 pressure sensor's kind come from it. Frames go out at ``speed`` x real time (an absolute schedule:
 no drift) for ``duration`` s (default: the survey); :func:`serve` returns when the run ends or
-``stop`` is set, and closes every port (the symlinks are removed).
+``stop`` is set, and closes every port (the symlinks are removed). A :class:`PortHook` passed to
+:func:`serve` stands between the schedule and the ports (the live-loop tests inject faults with
+:class:`auvlink.sim.faults.Injector`).
 """
 
 from __future__ import annotations
 
+import builtins
 import queue
 import threading
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import IO, Any, Literal, cast
+from typing import IO, Any, Literal, Protocol, cast
 
+import can
 from pydantic import ValidationError
 
 from auvlink.config import DeviceConfig, VehicleConfig
+from auvlink.framing.can_frames import frame_to_message
 from auvlink.sim.emit import Event, block_events
 from auvlink.sim.mission import Run, prepare
 from auvlink.sim.noise import NoiseConfig, SimError
 from auvlink.sim.scene import Scene, SonarConfig
 from auvlink.sim.settings import SimSettings, settings_for
+from auvlink.sim.sonar_render import SonarRenderer
+from auvlink.transports.can_bus import parse_can_url
+from auvlink.transports.tcp import TcpServerTransport, parse_address
 from auvlink.validation import config_error
+from auvlink.virtual_pty import PtyPair
+from auvlink.virtual_slcan import SlcanAdapter
 
 ROLES = {"pd0": "dvl", "dsp1760": "gyro", "paro": "pressure", "keller": "pressure", "can": "can",
          "didson": "sonar"}
@@ -47,7 +58,8 @@ BLOCK_S = 1.0
 
 @dataclass
 class Port:
-    """One served device: where the reader finds it, and counters."""
+    """One served device: where the reader finds it, and counters (:meth:`open` serves it, :meth:`send`
+    writes one frame, :meth:`close` stops serving; reopened, it keeps its counters)."""
 
     device: str
     format: str
@@ -57,6 +69,85 @@ class Port:
     frames: int = 0
     bytes: int = 0
     dropped: int = 0
+    config: DeviceConfig | None = field(default=None, repr=False)
+
+    @classmethod
+    def serve(cls, role: str, dev: DeviceConfig) -> Port:
+        """The device ``dev`` served in the simulated ``role``, open."""
+        port = cls(dev.name, dev.format, role, dev.url, config=dev)
+        port.open()
+        return port
+
+    def open(self) -> None:
+        """Serve the device where its URL points (a pty, an slcan adapter, a CAN bus, a TCP server)."""
+        dev = self.config
+        if dev is None:
+            raise SimError(f"port {self.device!r}: no device configuration to serve")
+        if self.role == "sonar":
+            if not dev.url.startswith("tcp://"):
+                raise SimError(f"cannot serve the sonar on {dev.url!r}: use tcp://HOST:PORT")
+            host, p = parse_address(dev.url)
+            self.sink = TcpServerTransport(f"tcp-listen://{host}:{p}").open()
+            self.where = f"tcp://{host}:{p} (listening)"
+        elif self.role == "can":
+            interface, channel, options = parse_can_url(dev.url)
+            if interface == "slcan":
+                if not channel:
+                    raise SimError(f"cannot serve {dev.url!r}: no slcan channel path")
+                self.sink = SlcanAdapter(channel)
+                self.where = f"slcan adapter on {channel} -> {self.sink.pty.slave_name}"
+            else:
+                kw = {k: v for k, v in options.items() if k != "sleep_after_open"}
+                self.sink = can.Bus(interface=interface, channel=channel, **kw)
+                self.where = f"python-can {interface} channel {channel}"
+        else:
+            path = _serial_path(dev.url)
+            self.sink = PtyPair(path, lossy=True).open()
+            self.where = f"{path} -> {self.sink.slave_name}"
+
+    def send(self, raw: builtins.bytes) -> None:  # (the field `bytes` shadows the type here)
+        """One frame to the reader; counted as dropped when the line or the bus refuses it."""
+        if self.role == "can":
+            try:
+                self.sink.send(frame_to_message(raw, time.time()))
+            except can.CanError:
+                self.dropped += 1
+                return
+        elif self.role == "sonar":
+            before = self.sink.bytes_discarded
+            self.sink.write(raw)
+            if self.sink.bytes_discarded != before:
+                self.dropped += 1
+                return
+        else:
+            sent = self.sink.write(raw)
+            if sent < len(raw):
+                self.dropped += 1
+                return
+        self.frames += 1
+        self.bytes += len(raw)
+
+    def write_raw(self, data: builtins.bytes) -> None:
+        """Bytes into the stream as they are (not a frame: not counted)."""
+        self.sink.write(data)
+
+    def close(self) -> None:
+        sink, self.sink = self.sink, None
+        if sink is None:
+            return
+        if self.role == "can":
+            sink.shutdown()
+        else:
+            sink.close()
+
+
+class PortHook(Protocol):
+    """Stands between the serving schedule and the ports: :meth:`start` sees every port once they are
+    open, :meth:`send` every frame at its mission time ``t_s`` (s) instead of ``port.send(raw)``."""
+
+    def start(self, ports: Mapping[str, Port]) -> None: ...
+
+    def send(self, t_s: float, port: Port, raw: bytes) -> None: ...
 
 
 @dataclass
@@ -112,82 +203,8 @@ def _serial_path(url: str) -> str:
     return path.partition("?")[0]
 
 
-def _open(role: str, dev: DeviceConfig) -> Port:
-    from auvlink.virtual import PtyPair
-
-    port = Port(dev.name, dev.format, role, dev.url)
-    if role == "sonar":
-        from auvlink.transports.tcp import TcpServerTransport, parse_address
-
-        if not dev.url.startswith("tcp://"):
-            raise SimError(f"cannot serve the sonar on {dev.url!r}: use tcp://HOST:PORT")
-        host, p = parse_address(dev.url)
-        port.sink = TcpServerTransport(f"tcp-listen://{host}:{p}").open()
-        port.where = f"tcp://{host}:{p} (listening)"
-    elif role == "can":
-        from auvlink.transports.can_bus import parse_can_url
-
-        interface, channel, options = parse_can_url(dev.url)
-        if interface == "slcan":
-            from auvlink.virtual_slcan import SlcanAdapter
-
-            if not channel:
-                raise SimError(f"cannot serve {dev.url!r}: no slcan channel path")
-            port.sink = SlcanAdapter(channel)
-            port.where = f"slcan adapter on {channel} -> {port.sink.pty.slave_name}"
-        else:
-            import can
-
-            kw = {k: v for k, v in options.items() if k != "sleep_after_open"}
-            port.sink = can.Bus(interface=interface, channel=channel, **kw)
-            port.where = f"python-can {interface} channel {channel}"
-    else:
-        path = _serial_path(dev.url)
-        port.sink = PtyPair(path, lossy=True).open()
-        port.where = f"{path} -> {port.sink.slave_name}"
-    return port
-
-
-def _send(port: Port, raw: bytes) -> None:
-    if port.role == "can":
-        import can
-
-        from auvlink.framing.can_frames import frame_to_message
-
-        try:
-            port.sink.send(frame_to_message(raw, time.time()))
-        except can.CanError:
-            port.dropped += 1
-            return
-    elif port.role == "sonar":
-        before = port.sink.bytes_discarded
-        port.sink.write(raw)
-        if port.sink.bytes_discarded != before:
-            port.dropped += 1
-            return
-    else:
-        sent = port.sink.write(raw)
-        if sent < len(raw):
-            port.dropped += 1
-            return
-    port.frames += 1
-    port.bytes += len(raw)
-
-
-def _close(port: Port) -> None:
-    sink, port.sink = port.sink, None
-    if sink is None:
-        return
-    if port.role == "can":
-        sink.shutdown()
-    else:
-        sink.close()
-
-
 def _producer(run: Run, blocks: queue.Queue[list[Event] | None], stop: threading.Event,
               halt: threading.Event, errors: list[BaseException], with_sonar: bool) -> None:
-    from auvlink.sim.sonar_render import SonarRenderer
-
     try:
         renderer = SonarRenderer(run.scene) if with_sonar else None
         last = run.duration + run.settings.sensors.keller_latency_s
@@ -215,8 +232,9 @@ def _producer(run: Run, blocks: queue.Queue[list[Event] | None], stop: threading
 def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: float | None = None,
           seed: int | None = None, noise: bool | NoiseConfig | None = None, settings: SimSettings | None = None,
           stop: threading.Event | None = None, ready: threading.Event | None = None,
-          out: IO[str] | None = None, faults: tuple[Any, ...] = ()) -> LiveResult:
-    """Serve the simulated devices of ``config`` until the run ends or ``stop`` is set."""
+          out: IO[str] | None = None, hook: PortHook | None = None) -> LiveResult:
+    """Serve the simulated devices of ``config`` until the run ends or ``stop`` is set (every frame through
+    ``hook`` when given)."""
     if not speed > 0:
         raise SimError(f"the speed must be > 0, got {speed}")
     stop = stop or threading.Event()
@@ -232,7 +250,7 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
     t_start = time.monotonic()
     try:
         for role, dev in devices.items():
-            ports[role] = _open(role, dev)
+            ports[role] = Port.serve(role, dev)
         if out is not None:
             print(f"auvlink sim: {scene.source or 'scene'} (seed {run.scene.seed}) live at {speed:g}x real "
                   f"time for {run.duration:.1f} s; Ctrl-C stops", file=out)
@@ -244,9 +262,8 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
         thread.start()
         start_ns = run.settings.sensors.start_ns
         t0 = time.monotonic()
-        from auvlink.sim.faults import Injector  # tests' fault injection (auvlink.sim.faults.Fault)
-
-        injected = Injector(faults, devices, ports)
+        if hook is not None:
+            hook.start(ports)
         while not stop.is_set():
             try:
                 events = blocks.get(timeout=0.1)
@@ -258,9 +275,12 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
                 delay = t0 + (t_ns - start_ns) * 1e-9 / speed - time.monotonic()
                 if delay > 0 and stop.wait(delay):
                     break
-                if role in ports:
-                    injected.tick((t_ns - start_ns) * 1e-9)
-                    injected.send(role, raw)
+                if role not in ports:
+                    continue
+                if hook is None:
+                    ports[role].send(raw)
+                else:
+                    hook.send((t_ns - start_ns) * 1e-9, ports[role], raw)
         if errors:
             raise SimError(f"the simulation failed: {errors[0]}") from errors[0]
     except OSError as exc:
@@ -270,5 +290,5 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
         if thread.is_alive():
             thread.join(timeout=5.0)
         for port in ports.values():
-            _close(port)
+            port.close()
     return LiveResult(time.monotonic() - t_start, list(ports.values()))

@@ -37,14 +37,19 @@ from typing import Any
 
 import numpy as np
 
-from auvlink import __version__
+from auvlink.progress import progress_bar
 from auvlink.sim.emit import Event, block_events, device_formats
 from auvlink.sim.noise import NoiseConfig, SimError
 from auvlink.sim.scene import Scene
 from auvlink.sim.sensors import Measurements, measure, sample_times
 from auvlink.sim.settings import SimSettings, check_budget, settings_for
+from auvlink.sim.sonar_render import SonarRenderer
 from auvlink.sim.trajectory import LawnmowerTrajectory, TruePose
 from auvlink.sim.truth import POSE_TOPIC, ground_truth, vehicle_config
+from auvlink.version import __version__
+from logs_format.profile import META_GROUND_TRUTH, META_SOFTWARE
+from logs_format.schemas import POSE_SCHEMA, POSE_SCHEMA_NAME, pose_message
+from logs_format.writer import MissionLogWriter
 
 BLOCK_S = 4.0
 #: below this many sonar frames a pool costs more than it saves
@@ -110,8 +115,6 @@ _STATE: dict[str, Any] = {}
 
 
 def _init_worker(scene: Scene, m: Measurements) -> None:
-    from auvlink.sim.sonar_render import SonarRenderer
-
     _STATE["m"], _STATE["renderer"] = m, SonarRenderer(scene)
 
 
@@ -167,10 +170,6 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
                     settings: SimSettings | None = None, workers: int | None = None,
                     block_s: float = BLOCK_S) -> SimResult:
     """Simulate the scene's survey into the mission log ``out_path`` (see the module docstring)."""
-    from logs_format.profile import META_GROUND_TRUTH, META_SOFTWARE
-    from logs_format.schemas import POSE_SCHEMA, POSE_SCHEMA_NAME, pose_message
-    from logs_format.writer import MissionLogWriter
-
     t_wall = time.perf_counter()
     run = prepare(scene, seed, duration, settings=settings, noise=noise)
     n_workers = default_workers(run) if workers is None else max(1, workers)
@@ -184,14 +183,13 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
     if len(topic_t):
         pose = run.trajectory.true_pose(topic_t)
         positions, quats = pose.position, pose.rotation().as_quat()
-    from tqdm import tqdm
-
     out = Path(out_path)
     j = 0  # next truth pose
     with contextlib.ExitStack() as stack:  # the pool forks before any thread (tqdm's monitor) starts
         pool = stack.enter_context(worker_pool(run, n_workers)) if n_workers > 1 else None
-        bar = stack.enter_context(tqdm(total=len(run.measurements.sonar.t), unit="frame", desc="auvlink sim",
-                                       disable=not progress, file=sys.stderr, dynamic_ncols=True))
+        bar = stack.enter_context(progress_bar(total=len(run.measurements.sonar.t), enabled=progress,
+                                               unit="frame", desc="auvlink sim", file=sys.stderr,
+                                               dynamic_ncols=True))
         log = stack.enter_context(MissionLogWriter(out, flush_interval=0.0, fsync=False, software=False,
                                                    keep_failed=False))  # a failed run leaves ``out`` as it was
         log.add_metadata(META_SOFTWARE, {"name": "auvlink", "version": __version__, "generator": "auvlink.sim"})

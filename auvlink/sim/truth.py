@@ -20,13 +20,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from auvlink import __version__
 from auvlink.config import VehicleConfig, loads_config
 from auvlink.jsonutil import to_jsonable
+from auvlink.sim.catalog import bounding_sphere, object_pose, placed_mesh
 from auvlink.sim.scene import Scene
 from auvlink.sim.seabed import SeabedSurface
 from auvlink.sim.settings import SimSettings
 from auvlink.sim.trajectory import TruePose
+from auvlink.version import __version__
 
 TRAJECTORY_ATTACHMENT = "truth/trajectory.npy"
 POSE_TOPIC = "truth/pose"
@@ -111,8 +112,6 @@ def npy_bytes(array: NDArray[Any]) -> bytes:
 def ground_truth(scene: Scene, settings: SimSettings, duration: float, pose: TruePose,
                  devices: dict[str, str]) -> tuple[dict[str, Any], dict[str, bytes]]:
     """The ``ground_truth`` metadata and its attachments (name -> bytes)."""
-    from auvlink.sim.catalog import bounding_sphere, object_pose, placed_mesh
-
     seabed = SeabedSurface(scene.seabed, scene.seed)
     attachments: dict[str, bytes] = {}
     objects = []

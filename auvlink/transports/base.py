@@ -9,22 +9,31 @@ URL forms (the scheme picks the backend module, imported only when used):
 ``tcp://127.0.0.1:5000``            TCP client (sonar frames)
 ``tcp-listen://127.0.0.1:5000``     TCP server: accepts one client at a time
 ``can://virtual/chan0``             python-can bus: ``can://INTERFACE/CHANNEL?bitrate=..``
-``pty:///tmp/auv/fog``              the instrument's end of a new pty (:mod:`auvlink.virtual`)
+``pty:///tmp/auv/fog``              the instrument's end of a new pty (:mod:`auvlink.virtual_pty`)
 ==================================  =======================================================
 
 The base class owns policy: open/close, the context manager, byte counters and timeouts.
 A backend implements :meth:`_open`, :meth:`_close`, :meth:`_read` and :meth:`_write`.
+
+Events: a backend notes what happened on its port that is not data (a TCP connection refused or
+taken over, ...) with :meth:`Transport._note`; whoever reads the port drains them with
+:meth:`Transport.take_events` and reports them (the live engine's port readers log them as port
+events). At most :data:`MAX_EVENTS` wait; older ones are dropped and counted in ``events_dropped``.
 """
 
 from __future__ import annotations
 
 import importlib
 from abc import ABC, abstractmethod
+from collections import deque
 from types import TracebackType
-from typing import ClassVar, Self
+from typing import Any, ClassVar, Self
 from urllib.parse import parse_qsl, urlsplit
 
 from auvlink.errors import TransportInitError, TransportOperationError
+
+#: events a transport keeps until they are taken (a port nobody drains must not grow without bound)
+MAX_EVENTS = 100
 
 _SCHEMES: dict[str, str] = {
     "serial": "auvlink.transports.serial_port:SerialTransport",
@@ -35,7 +44,7 @@ _SCHEMES: dict[str, str] = {
     "tcp": "auvlink.transports.tcp:TcpClientTransport",
     "tcp-listen": "auvlink.transports.tcp:TcpServerTransport",
     "can": "auvlink.transports.can_bus:CanTransport",
-    "pty": "auvlink.virtual:PtyTransport",
+    "pty": "auvlink.virtual_pty:PtyTransport",
 }
 
 
@@ -50,6 +59,21 @@ class Transport(ABC):
         self.bytes_read = 0
         self.bytes_written = 0
         self._is_open = False
+        self._events: deque[dict[str, Any]] = deque(maxlen=MAX_EVENTS)
+        self.events_dropped = 0
+
+    # -- events ---------------------------------------------------------------------------
+    def _note(self, kind: str, **detail: Any) -> None:
+        """Record a port event ``{"kind": kind, **detail}`` for :meth:`take_events`."""
+        if len(self._events) == MAX_EVENTS:
+            self.events_dropped += 1
+        self._events.append({"kind": kind, **detail})
+
+    def take_events(self) -> list[dict[str, Any]]:
+        """The events noted since the last call, oldest first (each a dict with ``kind``)."""
+        out = list(self._events)
+        self._events.clear()
+        return out
 
     # -- policy ---------------------------------------------------------------------------
     def open(self) -> Self:

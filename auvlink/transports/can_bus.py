@@ -31,7 +31,10 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
+import can
+
 from auvlink.errors import EncodeError, TransportInitError, TransportOperationError
+from auvlink.framing.can_frames import FRAME_SIZE, frame_to_message, message_to_frame
 from auvlink.transports.base import Transport, url_query
 
 #: messages drained per read after the first one arrived (bounds one read's latency)
@@ -102,10 +105,6 @@ class CanTransport(Transport):
 
     def _open(self) -> None:
         try:
-            import can
-        except ImportError as exc:  # pragma: no cover - python-can is a dependency
-            raise TransportInitError("python-can is not installed") from exc
-        try:
             self._bus = can.Bus(interface=self.interface, channel=self.channel, **self.options)
         except (can.CanError, OSError, ValueError, ImportError, NotImplementedError) as exc:
             raise TransportInitError(
@@ -119,10 +118,6 @@ class CanTransport(Transport):
             bus.shutdown()
 
     def _read(self, timeout: float | None) -> bytes:
-        import can
-
-        from auvlink.framing.can_frames import message_to_frame
-
         bus = self.bus
         frames: list[bytes] = []
         try:
@@ -143,10 +138,6 @@ class CanTransport(Transport):
         return b"".join(frames)
 
     def _write(self, data: bytes) -> None:
-        import can
-
-        from auvlink.framing.can_frames import FRAME_SIZE, frame_to_message
-
         self._pending += data
         whole = len(self._pending) - len(self._pending) % FRAME_SIZE
         chunk = bytes(self._pending[:whole])
@@ -161,8 +152,6 @@ class CanTransport(Transport):
 
     def send(self, msg: Any, timeout: float | None = None) -> None:
         """Send one ``can.Message`` directly (the byte-stream :meth:`write` is the usual path)."""
-        import can
-
         try:
             self.bus.send(msg, timeout)
         except can.CanError as exc:

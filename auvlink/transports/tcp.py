@@ -4,14 +4,25 @@ Imaging sonars (DIDSON / ARIS class) stream frames over TCP; the simulator plays
 the server end. Both ends set ``TCP_NODELAY`` (frames leave at once) and wait with ``select`` so
 ``read(timeout)`` returns within ``timeout``.
 
+A URL always names its host: an empty host (``tcp-listen://:5000``) is an error, because a
+server would listen on every interface without anyone having said so. Write
+``tcp-listen://0.0.0.0:PORT`` to mean every interface, ``tcp-listen://127.0.0.1:PORT`` for this
+machine only. An unknown query key is an error naming the keys allowed.
+
 Client query keys: ``timeout`` (connect timeout, s, default 5), ``reconnect`` (0/1, default 0:
 when 1, a dropped connection is retried inside later reads, which return ``b""`` meanwhile,
 instead of raising :class:`~auvlink.errors.TransportOperationError`).
 
 Server: binds at open (port 0 picks a free port, see :attr:`TcpServerTransport.address`) and
-serves one client at a time; a newer client replaces the current one (a client that reconnected
-after a network fault is not locked out by its own half-dead connection). ``read`` returns
-``b""`` while no client is connected, and ``write`` discards (and counts) bytes nobody receives.
+serves one client, the instrument. A second connection while that client is live is refused
+(closed at once) and noted as a ``connection_refused`` port event (see
+:meth:`~auvlink.transports.base.Transport.take_events`), so no other peer can slip its bytes in
+under the instrument's name. A client whose connection is dead is replaced by the next one: one that
+closed is seen at once (a zero-byte peek), one that vanished (power loss, cable) by TCP keepalive
+within about half a minute. Query key ``takeover`` (0/1, default 0): when 1, a newer client replaces
+the current one (``connection_taken_over`` event). ``client_connected`` and ``client_left`` are
+noted too. ``read`` returns ``b""`` while no client is connected, and ``write`` discards (and
+counts) bytes nobody receives.
 """
 
 from __future__ import annotations
@@ -19,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import select
 import socket
+import struct
 import time
 from typing import ClassVar
 from urllib.parse import urlsplit
@@ -30,16 +42,52 @@ READ_CHUNK = 1 << 16
 _TRUE = ("1", "true", "yes", "on")
 
 
+#: keepalive of a served client: probes after 10 s of silence, 5 s apart, 3 unanswered = dead
+KEEPALIVE = (("TCP_KEEPIDLE", 10), ("TCP_KEEPINTVL", 5), ("TCP_KEEPCNT", 3))
+
+
 def parse_address(url: str) -> tuple[str, int]:
-    """``(host, port)`` of ``tcp://host:port`` or ``tcp-listen://host:port`` (IPv6 as ``[::1]``)."""
+    """``(host, port)`` of ``tcp://host:port`` or ``tcp-listen://host:port`` (IPv6 as ``[::1]``).
+
+    An empty host is an error (a server would listen on every interface unasked)."""
     try:
         parts = urlsplit(url)
         host, port = parts.hostname, parts.port
     except ValueError as exc:
         raise TransportInitError(f"bad TCP address in {url!r}: {exc}") from exc
+    scheme = parts.scheme or "tcp"
     if port is None:
-        raise TransportInitError(f"no port in {url!r} (expected {parts.scheme}://HOST:PORT)")
-    return host or "0.0.0.0", port
+        raise TransportInitError(f"no port in {url!r} (expected {scheme}://HOST:PORT)")
+    if not host:
+        raise TransportInitError(
+            f"no host in {url!r}: write {scheme}://127.0.0.1:{port} for this machine only, or "
+            f"{scheme}://0.0.0.0:{port} to mean every interface"
+        )
+    return host, port
+
+
+def _options(url: str, allowed: tuple[str, ...]) -> dict[str, str]:
+    """The URL's query keys; :class:`TransportInitError` naming an unknown key and the allowed ones."""
+    query = url_query(url)
+    for key in query:
+        if key not in allowed:
+            raise TransportInitError(f"unknown option {key!r} in {url!r}; allowed: {', '.join(allowed)}")
+    return query
+
+
+def _flag(url: str, query: dict[str, str], key: str) -> bool:
+    value = query.get(key, "0").lower()
+    if value not in (*_TRUE, "0", "false", "no", "off"):
+        raise TransportInitError(f"option {key!r} in {url!r} must be 0 or 1, not {value!r}")
+    return value in _TRUE
+
+
+def _peer(addr: object) -> str:
+    """``host:port`` of a socket address tuple."""
+    if isinstance(addr, tuple) and len(addr) >= 2:
+        host = str(addr[0])
+        return f"[{host}]:{addr[1]}" if ":" in host else f"{host}:{addr[1]}"
+    return str(addr)
 
 
 def _tune(sock: socket.socket) -> socket.socket:
@@ -55,12 +103,12 @@ class TcpClientTransport(Transport):
     def __init__(self, url: str) -> None:
         super().__init__(url)
         self.address = parse_address(url)
-        query = url_query(url)
+        query = _options(url, ("timeout", "reconnect"))
         try:
             self.connect_timeout = float(query.get("timeout", "5"))
         except ValueError as exc:
             raise TransportInitError(f"bad timeout in {url!r}") from exc
-        self.auto_reconnect = query.get("reconnect", "0").lower() in _TRUE
+        self.auto_reconnect = _flag(url, query, "reconnect")
         self.reconnects = 0
         self._sock: socket.socket | None = None
 
@@ -140,16 +188,19 @@ class TcpClientTransport(Transport):
 
 
 class TcpServerTransport(Transport):
-    """Listens on ``host:port`` and exchanges bytes with one client at a time."""
+    """Listens on ``host:port`` and exchanges bytes with one client (see the module docstring)."""
 
     schemes: ClassVar[tuple[str, ...]] = ("tcp-listen",)
 
     def __init__(self, url: str) -> None:
         super().__init__(url)
         self._bind = parse_address(url)
+        self.takeover = _flag(url, _options(url, ("takeover",)), "takeover")
         self._listener: socket.socket | None = None
         self._client: socket.socket | None = None
-        self.clients = 0  # connections accepted so far
+        self.peer = ""  # host:port of the client served now ("" when none)
+        self.clients = 0  # connections served so far
+        self.refused = 0  # connections refused because a client was live
         self.bytes_discarded = 0  # written while no client was connected
 
     @property
@@ -184,22 +235,55 @@ class TcpServerTransport(Transport):
 
     def _drop_client(self) -> None:
         client, self._client = self._client, None
+        self.peer = ""
         if client is not None:
             with contextlib.suppress(OSError):
                 client.shutdown(socket.SHUT_RDWR)
             client.close()
 
+    def _client_alive(self) -> bool:
+        """Whether the served client's connection still stands (readable with 0 bytes = it closed)."""
+        client = self._client
+        if client is None:
+            return False
+        try:
+            ready, _, _ = select.select([client], [], [], 0)
+            return not ready or bool(client.recv(1, socket.MSG_PEEK))
+        except OSError:
+            return False
+
     def _accept(self) -> None:
         assert self._listener is not None
-        client, _ = self._listener.accept()
-        self._drop_client()
+        client, addr = self._listener.accept()
+        peer = _peer(addr)
+        if self._client is not None:
+            if self._client_alive() and not self.takeover:
+                with contextlib.suppress(OSError):  # reset at once: no lingering half-open socket
+                    client.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+                client.close()
+                self.refused += 1
+                self._note("connection_refused", peer=peer, serving=self.peer,
+                           reason="a client is connected already (takeover=1 in the URL lets a new one replace it)")
+                return
+            if self._client_alive():
+                self._note("connection_taken_over", peer=peer, previous=self.peer)
+            else:
+                self._note("client_left", peer=self.peer)
+            self._drop_client()
         self._client = _tune(client)
+        self._client.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+        for name, value in KEEPALIVE:
+            if hasattr(socket, name):
+                with contextlib.suppress(OSError):
+                    self._client.setsockopt(socket.IPPROTO_TCP, getattr(socket, name), value)
+        self.peer = peer
         self.clients += 1
+        self._note("client_connected", peer=peer)
 
     def wait_for_client(self, timeout: float | None = None) -> bool:
         """Block until a client is connected (True) or ``timeout`` s passed (False).
 
-        A client waiting to connect is accepted even when one is connected (it replaces it).
+        A connection waiting while a client is live is refused (or, with ``takeover``, replaces it).
         """
         if self._listener is None:
             raise TransportOperationError(f"{self.url}: not listening")
@@ -224,6 +308,7 @@ class TcpServerTransport(Transport):
                     data = b""
                 if data:
                     return data
+                self._note("client_left", peer=self.peer)
                 self._drop_client()  # the client left: wait for the next one
             if deadline is not None and time.monotonic() >= deadline:
                 return b""

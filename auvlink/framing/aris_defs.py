@@ -12,6 +12,10 @@ a header is read with ``numpy.frombuffer`` without copying and written back with
 Beam angle tables: the SDK's ``beam-width-metrics/BeamWidths_*.h`` (beam centre, left, right in
 degrees per SDK beam number), transcribed into ``auvlink/data/aris_beam_angles.json`` with the
 source file and commit of each table.
+
+The tables live beside the framer, which reads the frame header's layout (signature, ping mode, samples
+per beam) to cut frames; the codecs (:mod:`auvlink.codecs.aris`, :mod:`auvlink.codecs.didson`) import them
+from here, so framing never imports codecs.
 """
 
 from __future__ import annotations

@@ -9,26 +9,35 @@ horizontally and nearer to it than to any other object (0 = missed or merged int
 2+ = split; :func:`cluster_errors` counts splits, merges, misses and spurious clusters), centroid
 errors are horizontal distances to the object's position (the scene's north/east), and point
 accuracy is the distance of every object point to the true mesh
-surface (Open3D ``RaycastingScene.compute_distance``). ``auvlink.sim`` is imported lazily, so
-``recon`` itself never depends on it.
+surface (Open3D ``RaycastingScene.compute_distance``). It sits in the application layer: it drives
+the simulator, the pipeline's navigation and the log, which ``recon`` itself never imports.
 """
 
 from __future__ import annotations
 
 import io
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any
 
 import numpy as np
+import open3d as o3d
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
+from auvlink.pipeline.collect import MissionData
+from auvlink.pipeline.setup import MissionSetup, nav_config
+from auvlink.sim.catalog import placed_mesh
+from auvlink.sim.mission import prepare, simulate_to_log, truth_pose
+from auvlink.sim.scene import Scene
+from auvlink.sim.sonar_render import SonarRenderer
+from auvlink.sim.truth import TRAJECTORY_ATTACHMENT
+from logs_format import MissionLogReader, Replay
 from recon.cluster import DetectedObject, robust_centre
+from recon.nav import dead_reckon
 from recon.pipeline import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.trajectory import Trajectory
-
-if TYPE_CHECKING:
-    from auvlink.sim.scene import Scene
 
 F64 = NDArray[np.float64]
 
@@ -48,12 +57,6 @@ class SimFrames:
 
 def simulate(scene: Scene, duration: float | None = None, speckle: bool = True) -> SimFrames:
     """Render every sonar frame of ``scene``'s survey (true poses, noise-free navigation)."""
-    from scipy.spatial.transform import Rotation
-
-    from auvlink.sim.catalog import placed_mesh
-    from auvlink.sim.mission import prepare, truth_pose
-    from auvlink.sim.sonar_render import SonarRenderer
-
     run = prepare(scene, duration=duration, noise=False)
     renderer = SonarRenderer(run.scene, speckle=speckle)
     s = run.measurements.sonar
@@ -72,7 +75,6 @@ def simulate(scene: Scene, duration: float | None = None, speckle: bool = True) 
 
 def mesh_distance(points: F64, meshes: list[tuple[F64, NDArray[np.int32]]]) -> F64:
     """Unsigned distance (m) of each point to the nearest triangle of ``meshes``."""
-    import open3d as o3d
 
     p = np.asarray(points, np.float64).reshape(-1, 3)
     if p.shape[0] == 0 or not meshes:
@@ -181,15 +183,6 @@ def nav_drift(scene: Scene, workdir: str, duration: float | None = None, noise: 
     (framers, codecs, :func:`recon.nav.dead_reckon`); errors are horizontal, against the log's true
     trajectory attachment, and drift is given as a fraction of the distance travelled.
     """
-    from pathlib import Path
-
-    from auvlink.pipeline.collect import MissionData
-    from auvlink.pipeline.setup import MissionSetup, nav_config
-    from auvlink.sim.mission import simulate_to_log
-    from auvlink.sim.truth import TRAJECTORY_ATTACHMENT
-    from logs_format import MissionLogReader, Replay
-    from recon.nav import dead_reckon
-
     log = Path(workdir) / "nav.mcap"
     simulate_to_log(scene, log, progress=False, duration=duration, workers=1, noise=noise)
     with MissionLogReader(log) as reader:

@@ -5,22 +5,38 @@ flies a straight level line north at ``altitude`` and 1 m/s, ``lateral`` metres 
 ``run_in`` metres before the object to ``run_out`` past it. Frames are rendered by the simulator
 (:class:`auvlink.sim.sonar_render.SonarRenderer`, speckle on) at ``fps`` and fed with the true poses
 to :class:`recon.pipeline.Reconstructor` with the pipeline's configuration
-(``auvlink.pipeline.process.default_recon_config``; recon's own defaults where that is missing),
-optionally overridden (highlight threshold factor, front-slope carving). The cloud of the detected
-object nearest the origin is returned. Poses are true here (no navigation noise); whole missions
-are the pipeline's test.
+(:func:`auvlink.pipeline.engine.default_recon_config`), optionally overridden (highlight threshold
+factor, front-slope carving). The cloud of the detected object nearest the origin is returned. Poses are
+true here (no navigation noise); whole missions are the pipeline's test.
 """
 
 from __future__ import annotations
 
+import hashlib
+import inspect
+import json
 import math
+import os
 import zlib
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+import recon
+from auvlink import sim
+from auvlink.pipeline.engine import default_recon_config
+from auvlink.progress import progress_bar
+from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
+from auvlink.sim.sonar_render import SonarRenderer, frame_rng
+from classify.evaluate import EvalReport
+from classify.infer import Classifier
+from recon.pipeline import Reconstructor
+from recon.sonar_geometry import SonarGeometry
+from recon.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -55,26 +71,10 @@ class ReconCloud:
     seabed_depth: float = float("nan")  # m NED: the seabed recon fitted under the object (NaN: none)
 
 
-def _base_config() -> Any:
-    try:
-        from auvlink.pipeline.process import default_recon_config
-    except ImportError:
-        from recon.pipeline import ReconConfig
-
-        return ReconConfig()
-    return default_recon_config()
-
-
 def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altitude: float, lateral: float,
                      s: PassSettings) -> tuple[npt.NDArray[np.float64], float]:
     """Points of the object recon detects nearest the origin, world NED (``(0, 3)`` if none), and the
     depth of the seabed recon fitted under it (m; NaN if none)."""
-    from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
-    from auvlink.sim.sonar_render import SonarRenderer, frame_rng
-    from recon.pipeline import Reconstructor
-    from recon.sonar_geometry import SonarGeometry
-    from recon.trajectory import Trajectory
-
     seed = int(np.random.SeedSequence([s.seed, zlib.crc32(class_name.encode()), round(heading_deg * 100),
                                        round(tilt_deg * 100), round(altitude * 100), round(lateral * 100) % 2**32])
                .generate_state(1)[0] & 0x7FFFFFFF)
@@ -92,7 +92,7 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
     traj = Trajectory.from_euler(t, pos, zeros, zeros, zeros, altitude=np.full(n, altitude))
     geom = SonarGeometry.from_degrees(tilt_deg=tilt_deg, spread_deg=s.spread_deg, window_start=s.window_start,
                                       window_length=s.window_length)
-    config = _base_config()
+    config = default_recon_config()
     if s.highlight_k is not None:
         config = replace(config, highlight=replace(config.highlight, k=s.highlight_k))
     if s.carve_front_slope is not None:
@@ -125,20 +125,13 @@ def iter_passes(class_names: Sequence[str], s: PassSettings) -> Iterator[tuple[s
 
 
 def _code_hash(s: PassSettings, class_names: Sequence[str]) -> str:
-    """Hash of the settings and of the simulator's and recon's source (recon changes: new clouds)."""
-    import hashlib
-    import json
-    from dataclasses import asdict
-    from pathlib import Path
-
-    import recon
-    from auvlink import pipeline, sim
-
+    """Hash of the settings, of the simulator's and recon's source and of the module holding the pipeline's
+    recon settings (any of them changes: new clouds)."""
     h = hashlib.sha256(json.dumps({"s": asdict(s), "classes": list(class_names)}, sort_keys=True).encode())
     for pkg in (recon, sim):
         for f in sorted(Path(str(pkg.__file__)).parent.rglob("*.py")):
             h.update(f.read_bytes())
-    h.update((Path(str(pipeline.__file__)).parent / "process.py").read_bytes())
+    h.update(Path(str(inspect.getsourcefile(default_recon_config))).read_bytes())
     return h.hexdigest()[:20]
 
 
@@ -146,10 +139,6 @@ def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool 
                     cache_dir: Any = None) -> list[ReconCloud]:
     """Every pass of ``s`` for every class; cached under ``cache_dir`` (keyed by the settings and the
     source of the simulator and recon) when given."""
-    from pathlib import Path
-
-    from tqdm import tqdm
-
     jobs = list(iter_passes(class_names, s))
     path = Path(cache_dir) / f"recon-{_code_hash(s, class_names)}.npz" if cache_dir is not None else None
     if path is not None and path.is_file():
@@ -158,12 +147,10 @@ def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool 
             depths = np.asarray(z["seabed"], dtype=np.float64)
         return [ReconCloud(*job, p, float(d)) for job, p, d in zip(jobs, parts, depths, strict=True)]
     out = []
-    for name, h, tilt, alt, lat in tqdm(jobs, desc="simulate+recon", disable=not progress):
+    for name, h, tilt, alt, lat in progress_bar(jobs, enabled=progress, desc="simulate+recon"):
         pts, depth = reconstruct_pass(name, h, tilt, alt, lat, s)
         out.append(ReconCloud(name, h, tilt, alt, lat, pts, depth))
     if path is not None:
-        import os
-
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")
         np.savez_compressed(tmp, points=np.concatenate([c.points for c in out]).reshape(-1, 3),
@@ -173,11 +160,9 @@ def reconstruct_set(class_names: Sequence[str], s: PassSettings, progress: bool 
     return out
 
 
-def evaluate_recon(clf: Any, clouds: Sequence[ReconCloud], min_points: int = 8) -> tuple[Any, int]:
+def evaluate_recon(clf: Classifier, clouds: Sequence[ReconCloud], min_points: int = 8) -> tuple[EvalReport, int]:
     """The classifier's report on the clouds with at least ``min_points`` points, and how many had fewer
     (passes where recon detected nothing are not classification errors; they are counted apart)."""
-    from classify.evaluate import EvalReport
-
     got = [c for c in clouds if len(c.points) >= min_points]
     pred = [clf.class_names.index(k) for k, _ in clf.classify_many([c.points for c in got],
                                                                   [c.seabed_depth for c in got])] if got else []
@@ -191,3 +176,16 @@ def horizontal_extent(points: npt.NDArray[np.float64]) -> float:
         return 0.0
     d = points[:, :2] - points[:, :2].mean(axis=0)
     return float(math.sqrt(float((d**2).sum(axis=1).max())))
+
+
+def recon_metrics(cache_dir: Path | None = None, progress: bool = False) -> Callable[[Classifier], dict[str, Any]]:
+    """The check ``auvlink train --recon-eval`` adds to :func:`classify.workflow.train_and_save`: the trained
+    classifier on the clouds of :func:`standard_passes` (evaluation only, never training data)."""
+
+    def run(clf: Classifier) -> dict[str, Any]:
+        passes = standard_passes()
+        clouds = reconstruct_set(clf.class_names, passes, progress, cache_dir)
+        rep, missed = evaluate_recon(clf, clouds)
+        return {"passes": asdict(passes), "n_passes": len(clouds), "not_detected": missed, **rep.to_dict()}
+
+    return run

@@ -1,0 +1,81 @@
+"""What a pipeline run produces: :class:`Detection` (one classified object), :class:`StripFrame` (a sonar
+frame kept for the report) and :class:`MissionResult` (everything of a live or replay run).
+
+Plain data, imported by the engine, the runners (:mod:`auvlink.pipeline.process`,
+:mod:`auvlink.pipeline.live`) and the outputs alike, so none of them imports another for its types.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from auvlink.pipeline.setup import MissionSetup
+from recon.sonar_geometry import SonarGeometry
+
+
+@dataclass
+class Detection:
+    """One classified object (world frame NED, m; times s since the UNIX epoch)."""
+
+    id: int
+    class_name: str
+    score: float
+    position_ned: tuple[float, float, float]
+    size: tuple[float, float, float]
+    n_points: int
+    t_first: float
+    t_last: float
+    points: np.ndarray
+
+    def to_json(self, cloud: str) -> dict[str, Any]:
+        return {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
+                "position_ned": [round(v, 4) for v in self.position_ned],
+                "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
+                "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud}
+
+
+@dataclass(frozen=True)
+class StripFrame:
+    """A sonar frame kept for the report, with the pose it was processed with (mission time s)."""
+
+    t: float
+    image: np.ndarray
+    position: np.ndarray  # (1, 3)
+    rotation: Rotation  # (1) R_WB
+    altitude: np.ndarray  # (1,)
+
+
+@dataclass
+class MissionResult:
+    """Everything a run produced (live or replay)."""
+
+    log: Path | None
+    setup: MissionSetup
+    detections: list[Detection]
+    track: np.ndarray  # (n, 3) vehicle positions, world NED
+    t0: float = 0.0  # s since the epoch of mission time 0
+    strip: list[StripFrame] = field(default_factory=list)
+    geometry: SonarGeometry | None = None  # the sonar's, when it had frames
+    timings: dict[str, float] = field(default_factory=dict)
+    latency: dict[str, dict[str, Any]] = field(default_factory=dict)
+    replay_stats: dict[str, Any] = field(default_factory=dict)
+    recon_stats: dict[str, Any] = field(default_factory=dict)
+    loss: dict[str, Any] | str = ""  # replay: the log's loss report (JSON); live: why writing the log failed
+    highlight_points: np.ndarray | None = None
+    drops: dict[str, int] = field(default_factory=dict)
+    events: list[dict[str, Any]] = field(default_factory=list)
+    mode: str = "replay"
+    engine: dict[str, Any] = field(default_factory=dict)
+
+    def loss_json(self) -> dict[str, Any]:
+        """What the log lost, as one JSON object: replay gives the reader's loss report (``state``,
+        ``messages_lost``, ``seconds_lost``, ``spans``, ...); live gives ``{}``, or ``state`` =
+        ``write_failed`` with the reason when writing the log failed."""
+        if isinstance(self.loss, dict):
+            return self.loss
+        return {"state": "write_failed", "summary": self.loss} if self.loss else {}

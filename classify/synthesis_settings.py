@@ -1,0 +1,80 @@
+"""How training clouds are synthesized: :class:`SynthesisSettings` (stored in checkpoints, hashed for the
+synthesized-cloud cache key), shared by both synthesis modes (:mod:`classify.synthesis`, mode ``paper``;
+:mod:`classify.scan_synth`, mode ``scan``)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+def _default_tilts() -> tuple[float, ...]:
+    return tuple(float(round(t, 4)) for t in np.linspace(20.0, 45.0, 4))
+
+
+@dataclass(frozen=True)
+class SynthesisSettings:
+    """How training clouds are synthesized (stored in checkpoints; hashed for the cache key)."""
+
+    headings_deg: tuple[float, ...] = tuple(float(h) for h in range(0, 360, 20))
+    tilts_deg: tuple[float, ...] = field(default_factory=_default_tilts)
+    spread_deg: float = 14.0
+    n_points: int = 1024
+    noise_fraction: tuple[float, float] = (0.05, 0.15)
+    noise_scale: float = 1.0
+    altitude_m: tuple[float, float] = (4.0, 6.0)
+    front_slope: bool = True
+    column_m: float = 0.05
+    incidence_power: float = 0.0
+    min_incidence_cos: float = 0.0
+    seabed_cut_m: tuple[float, float] = (0.0, 0.0)
+    slope_only: bool = False
+    candidates: int = 6000
+    copies: int = 1
+    seed: int = 0
+    # mode "scan" (classify.scan_synth): recon's highlight extension emulated from the beam geometry
+    mode: str = "paper"
+    lateral_m: tuple[float, float] = (-1.0, 1.0)
+    min_cos: tuple[float, float] = (0.0, 0.5)
+    min_height_m: tuple[float, float] = (0.15, 0.15)
+    rays_per_beam: int = 8
+    step_m: float = 0.1
+    onset_margin_m: float = 0.25
+    range_sigma_m: float = 0.01
+    cos_jitter: float = 0.0
+    range_bias_m: tuple[float, float] = (0.0, 0.0)  # scan mode: detection lag of recon (m of range)
+    # scan mode detection: "cos" (a ray's own incidence against min_cos) or "energy" (the returns of a beam's
+    # rays summed per range bin, cos^2 (r0 / r)^2 / rays, against a threshold drawn from energy_threshold,
+    # held for min_run bins: as the sonar image and recon's run-length threshold see them)
+    detect: str = "cos"
+    energy_threshold: tuple[float, float] = (0.02, 0.1)
+    bin_m: float = 10.0 / 512
+    min_run: int = 2
+    correction: str = "none"  # scan mode: "arc" applies recon's front-slope correction (as the pipeline does)
+    correction_length_m: float = 1.0
+    correction_width_m: float = 0.25
+    correction_blend: tuple[float, float] = (1.0, 1.0)  # fraction of the correction applied (drawn per view)
+    # > 0: clouds are centred and divided by this many metres (the size stays a feature), not unit-sphere
+    scale_m: float = 0.0
+    # "mean": centred on the mean in 3D; "seabed" (needs scale_m > 0): centred horizontally only, z kept as
+    # the height above the local seabed (the object's height is a feature; recon knows the seabed)
+    z_ref: str = "mean"
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SynthesisSettings:
+        kw: dict[str, Any] = {}
+        for k in cls.__dataclass_fields__:
+            if k in d:
+                v = d[k]
+                kw[k] = tuple(float(x) for x in v) if isinstance(v, list | tuple) else v
+        return cls(**kw)
+
+    @property
+    def directions(self) -> list[tuple[float, float]]:
+        """(heading, tilt) pairs in degrees, heading-major."""
+        return [(h, t) for h in self.headings_deg for t in self.tilts_deg]
