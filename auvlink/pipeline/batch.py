@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import time
 from collections import Counter
 from collections.abc import Iterable, Sequence
@@ -26,11 +25,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from auvlink import __version__
 from auvlink.atomic import check_writable_folder, write_text
 from auvlink.errors import AuvlinkError, OutputError
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.batch_mission import MissionTask, Outcome, run_mission, sha256_file
+from auvlink.version import __version__
 
 RUN_FILE = "batch.json"
 RUN_FORMAT = "auvlink-batch/1"
@@ -164,7 +163,8 @@ def run_batch(tasks: Sequence[MissionTask], out: Path, *, workers: int = 2, sche
               progress: bool = True) -> BatchRun:
     """Run every task on the cluster, then write the catalogue and ``DIR/batch.json``."""
     from distributed import as_completed
-    from tqdm import tqdm
+
+    from auvlink.progress import progress_bar
 
     t0 = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
@@ -174,8 +174,7 @@ def run_batch(tasks: Sequence[MissionTask], out: Path, *, workers: int = 2, sche
         n_workers = len(client.scheduler_info().get("workers", {})) or workers
         futures = {client.submit(run_mission, t, key=f"auvlink-mission-{t.mission}-{os.urandom(4).hex()}",
                                  pure=False, retries=0): t for t in tasks}
-        bar = tqdm(total=len(tasks), unit="mission", desc="batch",
-                   disable=not (progress and sys.stderr.isatty()))
+        bar = progress_bar(total=len(tasks), unit="mission", desc="batch", enabled=progress)  # on a terminal only
         for fut in as_completed(futures):
             task = futures[fut]
             if fut.status == "finished":

@@ -118,7 +118,7 @@ def run_mission(task: MissionTask) -> Outcome:
 
 
 def _run(task: MissionTask, out: Outcome) -> None:
-    from auvlink import __version__
+    from auvlink.version import __version__
 
     if task.settings.get("auvlink") != __version__:
         raise AuvlinkError(f"this worker has auvlink {__version__}, the client {task.settings.get('auvlink')}; "
