@@ -17,7 +17,14 @@ from hypothesis import strategies as st
 
 from auvlink.pipeline.catalogue import MissionData, Sighting, build_catalogue, merge
 from auvlink.pipeline.catalogue_io import write_catalogue
-from auvlink.pipeline.coverage import Track, coverage_polygon, onset_chords, onset_directions, track_from_positions
+from auvlink.pipeline.coverage import (
+    Track,
+    coverage_polygon,
+    kept_poses,
+    onset_chords,
+    onset_directions,
+    track_from_positions,
+)
 
 TILT, SPREAD, HALF_FOV, ALT = math.radians(30.0), math.radians(14.0), math.radians(14.5), 5.0
 
@@ -39,7 +46,8 @@ def _line(length: float, heading: float = 0.0, n: int = 200, start: tuple[float,
 
 def test_onset_chord_golden() -> None:
     dirs = onset_directions(TILT, SPREAD, HALF_FOV)
-    chords = onset_chords(_line(10.0), dirs)
+    line = _line(10.0)
+    chords = onset_chords(line, dirs, kept_poses(line, dirs))
     ahead0, _ = _chord_offset(0.0)
     assert ahead0 == pytest.approx(ALT / math.tan(TILT + SPREAD / 2), rel=1e-12)  # 6.635 m
     mid = chords[0, len(dirs) // 2]
@@ -59,6 +67,19 @@ def test_straight_line_area_is_length_times_width() -> None:
     assert poly.area == pytest.approx(30.0 * 2 * side, rel=0.01)
     assert poly.contains(shapely.Point(0.0, 20.0)) and not poly.contains(shapely.Point(2.5, 20.0))
     assert not poly.contains(shapely.Point(0.0, 3.0))  # behind the first chord: never swept
+
+
+def test_no_coverage_where_the_seabed_is_out_of_the_range_window() -> None:
+    dirs = onset_directions(TILT, SPREAD, HALF_FOV)
+    track = _line(40.0, n=401)
+    alt = track.altitude.copy()
+    alt[:100] = 20.0  # at the surface over 20 m of water: the onset is 33 m away, beyond a 1 + 10 m window
+    high = Track(track.north, track.east, track.heading, alt)
+    _, side = _chord_offset(HALF_FOV)
+    poly = coverage_polygon(high, dirs, window=(1.0, 11.0))
+    assert poly.area == pytest.approx(30.0 * 2 * side, rel=0.01)
+    assert poly.bounds[1] == pytest.approx(10.0 + _chord_offset(HALF_FOV)[0], abs=0.1)
+    assert coverage_polygon(high, dirs).area > poly.area * 1.5  # without the window: the surface too
 
 
 @settings(max_examples=25, deadline=None)

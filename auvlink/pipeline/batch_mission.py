@@ -180,7 +180,7 @@ def mission_record(task: MissionTask, digest: str, result: Any, start_ns: int | 
     mount = setup.sonar_mounting.rpy
     half_fov = _half_fov(result.geometry)
     dirs = onset_directions(setup.sonar.tilt, setup.sonar.spread, half_fov, mount_pitch=mount[1], mount_yaw=mount[2])
-    cover = coverage_polygon(track, dirs)
+    cover = coverage_polygon(track, dirs, window=(setup.sonar.window_start, setup.sonar.window_end))
     site = setup.site
     datum = ({"latitude": site.latitude, "longitude": site.longitude}
              if site is not None and site.latitude is not None and site.longitude is not None else None)

@@ -12,7 +12,8 @@ clockwise +) and altitude (m above the seabed). The sonar is placed by its mount
 plus the tilt (R_BS = Rz(yaw) Ry(pitch) Ry(-tilt), as :mod:`recon.sonar_geometry`); vehicle pitch and
 roll (a few degrees in survey flight) and the lever arm (decimetres) are neglected: the chord moves
 by less than the merge radius of the catalogue. Poses closer than ``step`` m to the previous kept
-pose are skipped.
+pose are skipped, and so are poses where the seabed onset lies outside the sonar's range window (at
+the surface, diving, climbing).
 """
 
 from __future__ import annotations
@@ -66,44 +67,58 @@ def onset_directions(tilt: float, spread: float, half_fov: float = DEFAULT_HALF_
     return np.asarray(r_bs.apply(d_s), dtype=np.float64)
 
 
-def onset_chords(track: Track, directions: F64, step: float = 0.5) -> F64:
-    """The seabed onset chord at each kept pose: (n, CHORD_POINTS, 2) north, east (m).
-
-    Poses with a non-finite or non-positive altitude, or whose rays do not point down, are dropped."""
+def kept_poses(track: Track, directions: F64, step: float = 0.5,
+               window: tuple[float, float] = (0.0, math.inf)) -> NDArray[np.intp]:
+    """Indices of the poses that make the coverage: a finite, positive altitude; the whole chord inside
+    the sonar's range ``window`` (start, end in m of slant range: at the surface, or high above the
+    seabed, the sonar sees no seabed whatever its rays' geometry says); one pose per ``step`` m."""
+    if directions[:, 2].min() <= 1e-6:  # rays that do not point down never meet the seabed
+        return np.zeros(0, dtype=np.intp)
     ok = np.isfinite(track.north) & np.isfinite(track.east) & np.isfinite(track.heading)
     ok &= np.isfinite(track.altitude) & (track.altitude > 0)
-    idx = np.flatnonzero(ok)
+    with np.errstate(invalid="ignore"):
+        ranges = track.altitude[:, None] / directions[None, :, 2]  # slant range of each ray to the seabed
+        ok &= (ranges.min(axis=1) >= window[0]) & (ranges.max(axis=1) <= window[1])
     keep: list[int] = []
-    last = None
-    for i in idx.tolist():  # thin to one pose per ``step`` m (a loop over poses, not over points)
-        p = (track.north[i], track.east[i])
-        if last is None or math.hypot(p[0] - last[0], p[1] - last[1]) >= step:
+    last = (math.nan, math.nan)
+    good = np.flatnonzero(ok).tolist()
+    for i in good:  # a loop over poses (thousands), not over points
+        p = (float(track.north[i]), float(track.east[i]))
+        if not keep or math.hypot(p[0] - last[0], p[1] - last[1]) >= step:
             keep.append(i)
             last = p
-    if idx.size and (not keep or keep[-1] != idx[-1]):
-        keep.append(int(idx[-1]))
-    k = np.asarray(keep, dtype=np.intp)
-    if directions[:, 2].min() <= 1e-6 or k.size == 0:
+    if good and keep[-1] != good[-1]:
+        keep.append(good[-1])  # the end of the track
+    return np.asarray(keep, dtype=np.intp)
+
+
+def onset_chords(track: Track, directions: F64, idx: NDArray[np.intp]) -> F64:
+    """The seabed onset chord at the poses ``idx``: (n, CHORD_POINTS, 2) north, east (m)."""
+    if idx.size == 0:
         return np.zeros((0, directions.shape[0], 2))
-    scale = track.altitude[k, None] / directions[None, :, 2]  # (n, m): range to the seabed plane
-    c, s = np.cos(track.heading[k]), np.sin(track.heading[k])
+    scale = track.altitude[idx, None] / directions[None, :, 2]  # (n, m): range to the seabed plane
+    c, s = np.cos(track.heading[idx]), np.sin(track.heading[idx])
     fwd = directions[None, :, 0] * scale
     stb = directions[None, :, 1] * scale
-    north = track.north[k, None] + c[:, None] * fwd - s[:, None] * stb
-    east = track.east[k, None] + s[:, None] * fwd + c[:, None] * stb
+    north = track.north[idx, None] + c[:, None] * fwd - s[:, None] * stb
+    east = track.east[idx, None] + s[:, None] * fwd + c[:, None] * stb
     return np.stack([north, east], axis=-1)
 
 
-def coverage_polygon(track: Track, directions: F64, step: float = 0.5) -> Any:
+def coverage_polygon(track: Track, directions: F64, step: float = 0.5,
+                     window: tuple[float, float] = (0.0, math.inf)) -> Any:
     """The covered seabed as a shapely geometry in (east, north) metres (x = east, y = north, as a map
-    draws it); empty when the track has fewer than two usable poses."""
+    draws it); empty when the track has fewer than two usable poses. Consecutive kept poses more than
+    ``4 * step`` apart (a gap in the track, or poses dropped in between) are not joined."""
     from shapely import MultiPoint, Polygon, unary_union
 
-    chords = onset_chords(track, directions, step)
+    idx = kept_poses(track, directions, step, window)
+    chords = onset_chords(track, directions, idx)
     if len(chords) < 2:
         return Polygon()
     en = chords[..., ::-1]  # (east, north)
-    pieces = [MultiPoint(np.concatenate([en[i], en[i + 1]])).convex_hull for i in range(len(en) - 1)]
+    gap = np.hypot(np.diff(track.north[idx]), np.diff(track.east[idx])) > 4 * step
+    pieces = [MultiPoint(np.concatenate([en[i], en[i + 1]])).convex_hull for i in range(len(en) - 1) if not gap[i]]
     return unary_union(pieces).buffer(0)
 
 
