@@ -154,6 +154,10 @@ def test_flags_tell_not_seen_from_not_covered(tmp_path: Path) -> None:
     f = {x["properties"]["class"]: x for x in gj["features"]}
     assert f["pipe"]["geometry"]["coordinates"] == [-5.0, 30.0]  # [east, north] without a datum
     assert f["pipe"]["properties"]["not_seen_in"] == ["m3"] and f["reef_a"]["properties"]["seen_in"] == ["m2", "m3"]
+    cov = json.loads((tmp_path / "coverage.geojson").read_text())
+    assert [(f["properties"]["mission"], f["properties"]["area_m2"]) for f in cov["features"]] == [
+        ("m1", 1000.0), ("m2", 1000.0), ("m3", 500.0)]
+    assert shapely.geometry.shape(cov["features"][2]["geometry"]).equals(west)
     rows = {r["class"]: r for r in csv.DictReader(csv_path.open())}
     assert rows["sphere"]["votes"] == "sphere:3" and rows["sphere"]["seen_in"] == "m1;m2;m3"
     assert rows["reef_a"]["first_seen"].startswith("1970-01-03") and rows["pipe"]["lat"] == ""

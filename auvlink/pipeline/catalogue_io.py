@@ -12,7 +12,9 @@ but not seen), ``first_seen`` / ``last_seen`` (ISO 8601 UTC of the missions' sta
 ``edge_margin_m`` and ``missions`` (name, start, detections, covered area m^2) in time order.
 
 ``catalogue.csv``: the same, one row per object; lists ``;``-separated, votes as ``class:count``.
-Both are written atomically (:func:`auvlink.atomic.write_text`).
+``coverage.geojson``: each mission's covered seabed as a (Multi)Polygon feature (properties ``mission``,
+``start``, ``area_m2``), in the catalogue's coordinates. All are written atomically
+(:func:`auvlink.atomic.write_text`).
 """
 
 from __future__ import annotations
@@ -112,11 +114,39 @@ def catalogue_csv(cat: Catalogue) -> str:
     return buf.getvalue()
 
 
+def coverage_geojson(cat: Catalogue) -> dict[str, Any]:
+    """The missions' covered areas (``[lon, lat]`` in a geographic catalogue, else ``[east, north]`` m)."""
+    import numpy as np
+    import shapely
+
+    from auvlink.pipeline.catalogue import _geodesy
+    from auvlink.pipeline.coverage import geometry_to_json
+
+    datum = cat.frame.datum
+
+    def to_lonlat(xy: Any) -> Any:
+        assert datum is not None
+        lat, lon, _ = _geodesy().Datum(*datum).to_geodetic(np.column_stack([xy[:, 1], xy[:, 0], np.zeros(len(xy))]))
+        return np.column_stack([lon, lat])
+
+    feats = []
+    for m in cat.missions:
+        g = cat.coverage[m.name]
+        geom = geometry_to_json(shapely.transform(g, to_lonlat), 9) if datum is not None and not g.is_empty \
+            else geometry_to_json(g)
+        feats.append({"type": "Feature", "geometry": geom,
+                      "properties": {"mission": m.name, "start": iso(m.start_ns), "area_m2": round(float(g.area), 1)}})
+    return {"type": "FeatureCollection", "name": "auvlink survey coverage", "frame": cat.frame.note,
+            "features": feats}
+
+
 def write_catalogue(cat: Catalogue, out_dir: Path) -> tuple[Path, Path]:
-    """Write ``catalogue.geojson`` and ``catalogue.csv`` into ``out_dir`` (atomically); returns both paths."""
+    """Write ``catalogue.geojson``, ``catalogue.csv`` and ``coverage.geojson`` into ``out_dir``
+    (atomically); returns the first two paths."""
     gj = write_text(out_dir / "catalogue.geojson",
                     json.dumps(to_jsonable(catalogue_geojson(cat)), indent=1, allow_nan=False) + "\n")
     cs = write_text(out_dir / "catalogue.csv", catalogue_csv(cat))
+    write_text(out_dir / "coverage.geojson", json.dumps(to_jsonable(coverage_geojson(cat)), allow_nan=False) + "\n")
     return gj, cs
 
 
