@@ -32,33 +32,45 @@ def _wait_for(cond: object, what: str, procs: list[subprocess.Popen[bytes]], tim
         time.sleep(0.2)
 
 
+def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
+    for p in reversed(procs):
+        p.terminate()
+    for p in reversed(procs):
+        try:
+            p.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
 @pytest.fixture
-def cluster(tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+def scheduler(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
+    """A ``dask scheduler`` process on 127.0.0.1 (a port the system picks, read from its scheduler file)."""
     info = tmp_path / "scheduler.json"
-    sched = _start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                    "--scheduler-file", str(info)], tmp_path / "scheduler.log")
-    procs = [sched]
+    procs = [_start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                     "--scheduler-file", str(info)], tmp_path / "scheduler.log")]
     try:
         _wait_for(lambda: info.is_file() and info.stat().st_size > 0, "scheduler", procs)
         address = json.loads(info.read_text())["address"]
         assert address.startswith("tcp://127.0.0.1:")
-        worker = _start(["distributed.cli.dask_worker", address, "--host", "127.0.0.1", "--nthreads", "1",
-                         "--no-nanny", "--no-dashboard", "--name", "test-worker"], tmp_path / "worker.log")
-        procs.append(worker)
-        from distributed import Client
-
-        with Client(address, timeout="30s") as client:
-            _wait_for(lambda: len(client.scheduler_info()["workers"]) == 1, "worker", procs)
-        yield address, worker
+        yield address, procs
     finally:
-        for p in reversed(procs):
-            p.terminate()
-        for p in reversed(procs):
-            try:
-                p.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+        _stop(procs)
+
+
+@pytest.fixture
+def cluster(scheduler: tuple[str, list[subprocess.Popen[bytes]]],
+            tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+    """The scheduler and one ``dask worker`` process (one thread, no nanny: the process that runs tasks)."""
+    address, procs = scheduler
+    worker = _start(["distributed.cli.dask_worker", address, "--host", "127.0.0.1", "--nthreads", "1",
+                     "--no-nanny", "--no-dashboard", "--name", "test-worker"], tmp_path / "worker.log")
+    procs.append(worker)
+    from distributed import Client
+
+    with Client(address, timeout="30s") as client:
+        _wait_for(lambda: len(client.scheduler_info()["workers"]) == 1, "worker", procs)
+    yield address, worker
 
 
 def test_batch_through_an_existing_scheduler(cluster: tuple[str, subprocess.Popen[bytes]],
@@ -93,3 +105,18 @@ def test_unreachable_scheduler_is_one_line(tmp_path: Path, tmp_path_factory: pyt
         assert main(["batch", str(log), "--out", str(tmp_path / "o"), "--scheduler", f"tcp://127.0.0.1:{port}"]) == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith("auvlink: error: --scheduler") and "cannot connect" in err and "\n" not in err
+
+
+def test_scheduler_without_workers_is_one_line(scheduler: tuple[str, list[subprocess.Popen[bytes]]],
+                                              tmp_path: Path, tmp_path_factory: pytest.TempPathFactory,
+                                              monkeypatch: pytest.MonkeyPatch,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    from auvlink.pipeline import batch
+
+    monkeypatch.setattr(batch, "WAIT_WORKERS_S", 2.0)
+    address, _ = scheduler
+    log = site_logs(tmp_path_factory)[0]
+    assert main(["batch", str(log), "--out", str(tmp_path / "o"), "--scheduler", address]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == (f"auvlink: error: --scheduler {address}: no worker connected within 2 s; start some "
+                   f"(dask worker {address} --nthreads 1)")

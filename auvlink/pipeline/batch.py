@@ -34,6 +34,7 @@ from auvlink.version import __version__
 RUN_FILE = "batch.json"
 RUN_FORMAT = "auvlink-batch/1"
 LOG_SUFFIX = ".mcap"
+WAIT_WORKERS_S = 60.0  # how long a scheduler without workers is given to get one
 
 
 def discover_logs(inputs: Iterable[Path]) -> list[Path]:
@@ -151,6 +152,12 @@ def open_client(workers: int, scheduler: str | None) -> tuple[Any, Any, str]:
         except (OSError, TimeoutError) as exc:
             raise AuvlinkError(f"--scheduler {scheduler}: cannot connect ({exc}); is a dask scheduler running "
                                "there? (dask scheduler --host HOST --port 8786)") from exc
+        try:
+            client.wait_for_workers(1, timeout=WAIT_WORKERS_S)
+        except (OSError, TimeoutError) as exc:
+            client.close()
+            raise AuvlinkError(f"--scheduler {scheduler}: no worker connected within {WAIT_WORKERS_S:.0f} s; start "
+                               f"some (dask worker {scheduler} --nthreads 1)") from exc
         return client, None, f"scheduler {scheduler}"
     if workers < 1:
         raise AuvlinkError(f"--workers must be >= 1, got {workers}")
@@ -180,7 +187,10 @@ def run_batch(tasks: Sequence[MissionTask], out: Path, *, workers: int = 2, sche
             if fut.status == "finished":
                 oc: Outcome = fut.result()
             else:  # the worker died (out of memory, killed): the task's own handler never ran
-                exc = fut.exception()
+                try:
+                    exc = fut.exception()
+                except Exception as why:  # cancelled: there is no exception to fetch
+                    exc = why
                 oc = Outcome(task.mission, task.log, "failed", error=" ".join(f"{type(exc).__name__}: {exc}".split()))
             outcomes[task.mission] = oc
             bar.update(1)
