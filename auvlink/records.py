@@ -1,9 +1,10 @@
 """Envelope around decoded records as drivers and the log hand them on.
 
-Codecs are pure: ``decode(bytes) -> record`` knows nothing of time of arrival. A driver wraps each
-frame into a :class:`Sample` carrying the host receive time (``t_host_ns``, one monotonic clock per
-process, see :mod:`auvlink.clock`), the sensor's own time when the format has one, the raw bytes
-exactly as received, and the decoded record (SI units).
+Codecs are pure: ``decode(bytes) -> record`` knows nothing of time of arrival. A decoder
+(:class:`auvlink.decoder.Decoder`, run by a live driver and by replay) wraps each frame into a
+:class:`Sample` carrying the host receive time (``t_host_ns``, one monotonic clock per process, see
+:mod:`auvlink.clock`), the sensor's own time when the format has one, the raw bytes exactly as
+received, and the decoded record (SI units).
 """
 
 from __future__ import annotations

@@ -13,7 +13,8 @@ minutes; smoke (``AUVLINK_BENCH_SMOKE=1``): 30 s.
   interval, fsync) as fast as it takes them; x real time = mission time / writer time (frame
   generation not counted; wall time including it is reported too). Goal >= 10x.
 * replay: :class:`Replay` fast mode, read + framer + decode of every frame; goal >= 50x. Measured
-  again with the framers' one-frame fast path off and with chunk prefetch off (the ``peers`` rows).
+  again with the framers' one-frame fast path off and with chunk prefetch off (the ``peers`` rows),
+  and decoding only the channels a pipeline stage consumes (as ``auvlink replay`` does: no CAN).
 * read: the reader alone (raw frames, time-ordered merge).
 * wall time and CPU time are both reported: on a shared machine the CPU-time figure is the steadier.
 * memory: peak resident set of this process while recording and replaying, sampled from
@@ -28,13 +29,14 @@ import shutil
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from _common import smoke, table, write_json
 
+from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
 from logs_format import MissionLogReader, MissionLogWriter, Replay
 
 FULL_S, QUICK_S, SMOKE_S = 2100.0, 180.0, 30.0
@@ -186,26 +188,27 @@ class GeneralPathReplay(Replay):
     """Replay with the framers' one-whole-frame fast path switched off (every message through
     ``Framer._extract``): the reference the fast path is measured against in the same run."""
 
-    def driver(self, msg: Any) -> Any:
-        drv = super().driver(msg)
-        if drv is not None:
-            drv.framer._whole = lambda data: None  # type: ignore[method-assign]
-        return drv
+    def decoder(self, msg: Any) -> Any:
+        dec = super().decoder(msg)
+        if dec is not None:
+            dec.framer._whole = lambda data: None  # type: ignore[method-assign]
+        return dec
 
 
-def _replay(path: Path, mission_s: float, general_path: bool = False, prefetch: bool = True) -> dict[str, Any]:
+def _replay(path: Path, mission_s: float, general_path: bool = False, prefetch: bool = True,
+            formats: Iterable[str] | None = None) -> dict[str, Any]:
     n = errors = 0
     with RssPeak() as mem:
         t0, c0 = time.perf_counter(), time.process_time()
-        with (GeneralPathReplay if general_path else Replay)(path) as rep:
+        with (GeneralPathReplay if general_path else Replay)(path, formats=formats) as rep:
             rep.reader.prefetch = prefetch
             for _ in rep.samples():
                 n += 1
-            errors = sum(d.stats.decode_errors for d in rep.drivers.values())
-            framer_drops = sum(d.framer.stats.dropped_bytes for d in rep.drivers.values())
+            errors = sum(d.stats.decode_errors for d in rep.decoders.values())
+            framer_drops = sum(d.framer.stats.dropped_bytes for d in rep.decoders.values())
         dt, dc = time.perf_counter() - t0, time.process_time() - c0
-    stage = ("replay, framer general path" if general_path else "replay (read+frame+decode)"
-             if prefetch else "replay, no chunk prefetch")
+    stage = ("replay, framer general path" if general_path else "replay, no chunk prefetch" if not prefetch
+             else "replay, the pipeline's channels only" if formats is not None else "replay (read+frame+decode)")
     return {"stage": stage, "mission_s": mission_s, "frames": n, "seconds": dt,
             "x_realtime": mission_s / dt, "cpu_s": dc, "x_realtime_cpu": mission_s / dc,
             "peak_rss_MB": mem.peak_mb, "decode_errors": errors,
@@ -247,6 +250,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out"), keep_log: bool = 
         rows.append(_replay(path, mission_s))
         rows.append(_replay(path, mission_s, general_path=True))
         rows.append(_replay(path, mission_s, prefetch=False))
+        rows.append(_replay(path, mission_s, formats=CONSUMED_FORMATS))  # what auvlink replay decodes
         log_bytes = path.stat().st_size
     finally:
         if not keep_log:

@@ -16,7 +16,7 @@ from logs_format.info import format_info, log_info
 from logs_format.loss import LossReport, LostSpan
 from logs_format.profile import LogError
 from logs_format.reader import MissionLogReader, read_messages
-from logs_format.replay import LogTransport, Replay, paced, replay_frames, replay_samples
+from logs_format.replay import Replay, paced, replay_frames, replay_samples
 from logs_format.writer import MissionLogWriter
 
 __all__ = [
@@ -25,7 +25,6 @@ __all__ = [
     "ImportResult",
     "LogError",
     "LogMessage",
-    "LogTransport",
     "LossReport",
     "LostSpan",
     "MissionLogReader",

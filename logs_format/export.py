@@ -143,8 +143,8 @@ def export_log(
                 tables[name].write({**base, "file": file.name, "x_min_m": grid.x_min, "x_max_m": grid.x_max,
                                     "y_min_m": grid.y_min, "y_max_m": grid.y_max, "px_per_m": grid.px_per_m})
                 result.png_frames[name] = done + 1
-            for drv in rep.drivers.values():
-                result.decode_errors[drv.name] = drv.stats.decode_errors
+            for dec in rep.decoders.values():
+                result.decode_errors[dec.name] = dec.stats.decode_errors
             result.loss = rep.loss.describe()
             result.loss_report = rep.loss.to_json()
     finally:

@@ -1,12 +1,14 @@
 """Replay a mission log: a timed iterator over its raw frames, fed through the live path.
 
-Each device channel gets a :class:`~auvlink.driver.Driver` whose transport is the log itself
-(:class:`LogTransport`); every raw frame goes through that driver's framer and codec exactly as
-bytes from a port would (``driver.process(driver.framer.feed(raw), t_host_ns)``), so replay and
-live produce the same :class:`~auvlink.records.Sample` objects, with ``t_host_ns`` = the recorded
-receive time. Pacing: ``speed=None`` as fast as possible, ``1.0`` real time, ``N`` N times real
-time (an absolute schedule, so sleeping errors do not accumulate). The order of frames is the
-reader's time-ordered merge: the same log always replays the same sequence.
+Each device channel gets a :class:`~auvlink.decoder.Decoder`, the byte decoder of a live driver
+without its transport: every message's bytes go through that decoder's framer and codec exactly as
+bytes from a port would (``decoder.feed(msg.data, msg.log_time_ns)``), so replay and live produce
+the same :class:`~auvlink.records.Sample` objects, with ``t_host_ns`` = the recorded receive time.
+``formats`` names the wire formats a consumer takes (the pipeline: those its stages consume); the
+messages of other channels are counted (:attr:`Replay.not_decoded`) but neither framed nor decoded.
+Pacing: ``speed=None`` as fast as possible, ``1.0`` real time, ``N`` N times real time (an absolute
+schedule, so sleeping errors do not accumulate). The order of frames is the reader's time-ordered
+merge: the same log always replays the same sequence.
 
     for sample in replay_samples("mission.mcap", speed=10.0):
         ...
@@ -21,32 +23,15 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from auvlink import formats
-from auvlink.driver import Driver, SampleListener
-from auvlink.errors import AuvlinkError, TransportOperationError
+from auvlink import formats as wire_formats
+from auvlink.decoder import Decoder
+from auvlink.errors import AuvlinkError
 from auvlink.records import Sample
-from auvlink.transports.base import Transport
 from logs_format.chunks import LogMessage
 from logs_format.reader import MissionLogReader
 from logs_format.scan import LossReport
 
-
-class LogTransport(Transport):
-    """The stand-in port of a replayed device: frames come from the log, not from ``read``."""
-
-    schemes = ("log",)
-
-    def _open(self) -> None:
-        pass
-
-    def _close(self) -> None:
-        pass
-
-    def _read(self, timeout: float | None) -> bytes:
-        raise TransportOperationError(f"{self.url}: a replayed device is fed by the log, not read")
-
-    def _write(self, data: bytes) -> None:
-        raise TransportOperationError(f"{self.url}: a replayed device cannot be written to")
+SampleListener = Callable[[Sample], None]
 
 
 def paced(
@@ -72,7 +57,10 @@ def paced(
 
 
 class Replay:
-    """A log opened for replay (a context manager). Drivers are made per channel on first use."""
+    """A log opened for replay (a context manager). Decoders are made per channel on first use.
+
+    ``formats``: decode only the channels of these wire formats (None: every channel).
+    """
 
     def __init__(
         self,
@@ -82,6 +70,7 @@ class Replay:
         channels: Iterable[str] | None = None,
         start_ns: int | None = None,
         end_ns: int | None = None,
+        formats: Iterable[str] | None = None,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
@@ -89,11 +78,12 @@ class Replay:
         self.speed = speed
         self.reader = MissionLogReader(self.path)
         self._filters: dict[str, Any] = {"channels": channels, "start_ns": start_ns, "end_ns": end_ns}
+        self.formats = None if formats is None else frozenset(formats)
         self._clock, self._sleep = clock, sleep
-        self.drivers: dict[str, Driver] = {}
+        self.decoders: dict[str, Decoder] = {}  # channel -> its decoder
         self.skipped: dict[str, int] = {}  # channel -> frames of a format this install cannot decode
+        self.not_decoded: dict[str, int] = {}  # channel -> frames of a format outside ``formats``
         self._listeners: list[SampleListener] = []
-        self._last_t: dict[str, int] = {}
 
     @property
     def loss(self) -> LossReport:
@@ -102,8 +92,6 @@ class Replay:
     def add_listener(self, listener: SampleListener) -> None:
         """Call ``listener(sample)`` for every decoded sample of every device (as on live drivers)."""
         self._listeners.append(listener)
-        for drv in self.drivers.values():
-            drv.add_listener(listener)
 
     def frames(self) -> Iterator[LogMessage]:
         """Raw messages of the log, time ordered and paced."""
@@ -111,56 +99,78 @@ class Replay:
             return self.reader.messages(**self._filters)  # as fast as possible: no pacing layer
         return paced(self.reader.messages(**self._filters), self.speed, self._clock, self._sleep)
 
-    def driver(self, msg: LogMessage) -> Driver | None:
-        """The driver of ``msg``'s channel (None for a JSON channel or an unknown format)."""
-        drv = self.drivers.get(msg.channel)
-        if drv is not None:
-            return drv
+    def decoder(self, msg: LogMessage) -> Decoder | None:
+        """The decoder of ``msg``'s channel (None for a JSON channel, an unknown format, or a format
+        outside ``formats``; the last two are counted in :attr:`skipped` and :attr:`not_decoded`)."""
+        dec = self.decoders.get(msg.channel)
+        if dec is not None:
+            return dec
         if msg.format is None:
             return None
-        if msg.channel in self.skipped:
-            self.skipped[msg.channel] += 1
+        for counts in (self.skipped, self.not_decoded):
+            if msg.channel in counts:
+                counts[msg.channel] += 1
+                return None
+        if self.formats is not None and msg.format not in self.formats:
+            self.not_decoded[msg.channel] = 1
             return None
         try:
-            formats.get(msg.format)
+            wire = wire_formats.get(msg.format)
         except (AuvlinkError, ImportError):
             self.skipped[msg.channel] = 1
             return None
-        device = self.reader.channels[msg.channel].device
-        drv = Driver(device, msg.format, LogTransport(f"log://{self.path}#{msg.channel}"))
-        for listener in self._listeners:
-            drv.add_listener(listener)
-        self.drivers[msg.channel] = drv
-        return drv
+        dec = self.decoders[msg.channel] = Decoder(self.reader.channels[msg.channel].device, wire)
+        return dec
 
     def samples(self) -> Iterator[Sample]:
         """Decoded samples, through each device's framer and codec, paced like :meth:`frames`."""
-        # per channel: the bound feed and process of its driver (looked up once, not per frame)
-        routes: dict[str, tuple[Callable[[bytes], list[bytes]], Callable[[list[bytes], int], list[Sample]]]] = {}
-        last_t = self._last_t
+        feeds: dict[str, Callable[[bytes, int], list[Sample]]] = {}  # per channel: its decoder's feed
+        ignored: set[str] = set()  # channels without a decoder (JSON, unknown format, not in ``formats``)
+        last_t: dict[str, int] = {}  # per channel: time of the last message that completed no frame
+        listeners = self._listeners
         for msg in self.frames():
-            route = routes.get(msg.channel)
-            if route is None:
-                drv = self.driver(msg)
-                if drv is None:
+            channel = msg.channel
+            feed = feeds.get(channel)
+            if feed is None:
+                if channel in ignored:
+                    if msg.format is not None:
+                        self.decoder(msg)  # counts it
                     continue
-                route = routes[msg.channel] = (drv.framer.feed, drv.process)
-            frames = route[0](msg.data)
-            if frames:
-                yield from route[1](frames, msg.log_time_ns)
-            else:  # the framer waits for more bytes: its frame, if any, is stamped with this time
-                last_t[msg.channel] = msg.log_time_ns
-        for channel, drv in self.drivers.items():  # a framer that waits for more bytes
-            rest = drv.framer.flush()
-            if rest:
-                yield from drv.process(rest, self._last_t.get(channel, 0))
+                dec = self.decoder(msg)
+                if dec is None:
+                    ignored.add(channel)
+                    continue
+                feed = feeds[channel] = dec.feed
+            out = feed(msg.data, msg.log_time_ns)
+            if not out:  # the framer waits for more bytes: its frame, if any, is stamped with this time
+                last_t[channel] = msg.log_time_ns
+                continue
+            for sample in out:
+                for listener in listeners:
+                    listener(sample)
+            yield from out
+        for channel, dec in self.decoders.items():  # a framer that waits for more bytes
+            rest = dec.flush(last_t.get(channel, 0))
+            for sample in rest:
+                for listener in listeners:
+                    listener(sample)
+            yield from rest
 
     def __iter__(self) -> Iterator[Sample]:
         return self.samples()
 
     def stats(self) -> dict[str, dict[str, Any]]:
-        """Per device: samples, decode errors and framer counters (as on live drivers)."""
-        return {name: drv.describe() for name, drv in self.drivers.items()}
+        """Per device: samples, decode errors and framer counters (as on live drivers); with ``formats``,
+        ``not_decoded`` = the frames of a channel no consumer takes (0 for the decoded ones)."""
+        out = {dec.name: dec.describe() for dec in self.decoders.values()}
+        if self.formats is not None:
+            for info in out.values():
+                info["not_decoded"] = 0
+            for channel, n in self.not_decoded.items():
+                ch = self.reader.channels[channel]
+                out[ch.device] = {"name": ch.device, "format": ch.format, "samples": 0, "decode_errors": 0,
+                                  "not_decoded": n}
+        return out
 
     def close(self) -> None:
         self.reader.close()

@@ -11,6 +11,7 @@ import numpy as np
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.collect import MissionData
 from auvlink.pipeline.engine import default_recon_config
+from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
 from auvlink.pipeline.process import FRAME_BLOCK
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from logs_format import MissionLogReader, Replay
@@ -26,10 +27,10 @@ def run_log_batch(log: Path, *, recon_config: ReconConfig | None = None) -> tupl
     with MissionLogReader(log) as reader:
         setup = MissionSetup.from_metadata(reader.metadata(decode_json=True))
     data = MissionData()
-    with Replay(log) as replay:
+    with Replay(log, formats=CONSUMED_FORMATS) as replay:
         for sample in replay.samples():
             data.add(sample)
-    if len(data.dvl_t) < 2 or len(data.gyro_t) < 2 or not data.depth_t:
+    if data.n("dvl") < 2 or data.n("gyro") < 2 or not data.n("depth"):
         raise AuvlinkError(f"{log}: not enough navigation to process")
     traj = dead_reckon(*data.nav_inputs(), nav_config(setup))
     times, images = data.sonar.stack()

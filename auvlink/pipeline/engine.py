@@ -32,13 +32,12 @@ import numpy as np
 import numpy.typing as npt
 
 from auvlink.pipeline.latency import StageTimes
+from auvlink.pipeline.nav_inputs import Event, NavAdaptor, SonarPayload
 from auvlink.pipeline.results import Detection, StripFrame
-from auvlink.pipeline.route import DvlPayload, Event, Router, SonarPayload
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from auvlink.records import Sample
 from recon.cluster import ClusterConfig, DetectedObject, dbscan_labels
 from recon.highlight import HighlightConfig
-from recon.nav import DepthSamples, DvlSamples, GyroSamples
 from recon.nav_stream import CausalNavigator
 from recon.pipeline import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
@@ -95,7 +94,7 @@ class Engine:
         self.t0_ns = t0_ns
         self.recon_config = recon_config or default_recon_config()
         self.nav = CausalNavigator(nav_config(setup), self.config.max_extrapolation_s)
-        self.router = Router()
+        self.adaptor = NavAdaptor()
         self.times = StageTimes()
         self.detections: list[Detection] = []
         self.strip: list[StripFrame] = []
@@ -130,7 +129,7 @@ class Engine:
         dbscan_labels(np.random.default_rng(0).normal(size=(64, 3)), 0.5, 8)
 
     def feed(self, sample: Sample) -> None:
-        ev = self.router.route(sample)
+        ev = self.adaptor.route(sample)
         if ev is not None:
             if self.t0_ns is None:
                 self.t0_ns = ev.t_ns
@@ -157,26 +156,10 @@ class Engine:
         return self._run_frames(final=watermark_ns is None)
 
     def _navigate(self, events: list[Event]) -> None:
-        dvl = [e for e in events if e.kind == "dvl"]
-        gyro = [e for e in events if e.kind == "gyro"]
-        depth = [e for e in events if e.kind == "depth"]
-        if not (dvl or gyro or depth):
-            return
         t0 = time.perf_counter()
-        d = g = p = None
-        if dvl:
-            pl: list[DvlPayload] = [e.payload for e in dvl]
-            d = DvlSamples(t=np.array([self._t(e.t_ns) for e in dvl]), velocity=np.array([x.velocity for x in pl]),
-                           frame=pl[-1].frame,  # type: ignore[arg-type]
-                           valid=np.array([x.valid for x in pl]), altitude=np.array([x.altitude for x in pl]),
-                           heading=np.array([x.heading for x in pl]), pitch=np.array([x.pitch for x in pl]),
-                           roll=np.array([x.roll for x in pl]))
-        if gyro:
-            g = GyroSamples(t=np.array([self._t(e.t_ns) for e in gyro]), value=np.array([e.payload for e in gyro]),
-                            kind=self.router.gyro_kind)  # type: ignore[arg-type]
-        if depth:
-            p = DepthSamples(t=np.array([self._t(e.t_ns) for e in depth]),
-                             pressure_pa=np.array([e.payload for e in depth]))
+        d, g, p = self.adaptor.nav_inputs(events, self.t0_ns or 0)
+        if d is None and g is None and p is None:
+            return
         self.nav.add(d, g, p)
         self.times.add("navigation", time.perf_counter() - t0)
 

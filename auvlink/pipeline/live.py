@@ -31,6 +31,7 @@ from auvlink.config import VehicleConfig, load_config
 from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
+from auvlink.pipeline.nav_inputs import SONAR_FORMATS
 from auvlink.pipeline.outputs import DetectionStream, write_outputs
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
 from auvlink.pipeline.process import LIVE_META, result_of
@@ -38,8 +39,6 @@ from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.records import Sample
 from logs_format.writer import MissionLogWriter
-
-SONAR_FORMATS = ("didson", "aris")
 
 
 class LiveRun:

@@ -85,7 +85,7 @@ class PortReader:
                 if not self.is_open:
                     self.watermark_ns = now_ns()
                     try:
-                        self.driver.open()
+                        self.driver.open()  # a fresh byte stream: bytes before the gap belong to no frame
                     except TransportError as exc:
                         if lost_at is None:  # never opened: a start-up failure is a gap too
                             lost_at = now_ns()
@@ -99,7 +99,6 @@ class PortReader:
                     self.is_open = True
                     delay = self.backoff_initial
                     last_data, silent = now_ns(), False
-                    self.driver.framer.reset()  # bytes before the gap belong to no frame
                     if lost_at is not None:
                         back = now_ns()
                         self.gaps.append((lost_at, back))

@@ -1,10 +1,11 @@
 """Run the pipeline on a mission log: replay -> the streaming engine -> detections.
 
-Replay goes through :class:`logs_format.Replay`, i.e. the same framers, codecs and driver code as
-live operation, and the samples through :class:`auvlink.pipeline.engine.Engine`, the engine of
-``auvlink live``. Each stage is timed; the result (:mod:`auvlink.pipeline.results`) carries
-everything the outputs and the report need. The non-causal batch reference for tests is
-:func:`auvlink.evaluation.batch.run_log_batch`.
+Replay goes through :class:`logs_format.Replay`, i.e. the same decoders (framer + codec) as live
+operation, for the channels whose wire format a stage consumes
+(:data:`auvlink.pipeline.nav_inputs.CONSUMED_FORMATS`; the others are counted, not decoded), and
+the samples through :class:`auvlink.pipeline.engine.Engine`, the engine of ``auvlink live``. Each
+stage is timed; the result (:mod:`auvlink.pipeline.results`) carries everything the outputs and the
+report need. The non-causal batch reference for tests is :func:`auvlink.evaluation.batch.run_log_batch`.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any
 
 from auvlink.config import VehicleConfig
 from auvlink.pipeline.engine import Engine, EngineConfig
+from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.progress import progress_bar
@@ -66,7 +68,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     t_warm = time.perf_counter()
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
-    replay = Replay(log, speed=speed)
+    replay = Replay(log, speed=speed, formats=CONSUMED_FORMATS)
     bar = progress_bar(total=round(duration or 0.0, 1), enabled=progress, unit="s", desc="replay",
                        leave=False, bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s mission [{elapsed}]")
     last_adv = None
