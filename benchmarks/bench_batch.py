@@ -139,10 +139,12 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
             raise RuntimeError(f"auvlink batch --workers {workers} failed (rc {res['rc']}): see {work}")
         mission_s = sum(float(m["duration_s"]) for m in missions)
         per = float(statistics.median(float(m["wall_s"]) for m in missions))
+        peak = max(float(m.get("peak_rss_mb") or 0.0) for m in missions)
         runs[workers] = {"wall_s": res["wall_s"], "cpu_s": res["cpu_s"], "per_mission_s": per}
         rows.append({"run": f"auvlink batch --workers {workers}", "missions": len(missions), "wall_s": res["wall_s"],
                      "missions_per_hour": 3600.0 * len(missions) / res["wall_s"],
-                     "x_real_time": mission_s / res["wall_s"], "per_mission_worker_s": per})
+                     "x_real_time": mission_s / res["wall_s"], "per_mission_worker_s": per,
+                     "worker_peak_rss_MB": peak})
     rows.insert(0, {"run": f"auvlink replay x{n}, one after another", "missions": n, "wall_s": peer_s,
                     "missions_per_hour": 3600.0 * n / peer_s, "x_real_time": mission_s / peer_s,
                     "per_mission_worker_s": peer_s / n})

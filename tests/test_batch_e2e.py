@@ -37,6 +37,7 @@ def test_each_mission_equals_replay(batch_run: tuple[list[Path], Path, dict[str,
     logs, out, run = batch_run
     assert run["counts"] == {"done": 3} and run["workers"] == 2
     assert len({m["worker"] for m in run["missions"]}) == 2, "both workers got missions"
+    assert all(100 < m["peak_rss_mb"] < 4000 for m in run["missions"])  # PyTorch and a mission, not a log
     for log in logs:
         ref = tmp_path / log.stem
         assert main(["replay", str(log), "--out", str(ref), "--quiet"]) == 0

@@ -48,13 +48,13 @@ def _fmt(v: Any, spec: str = "") -> str:
 
 def summary_table(run: dict[str, Any]) -> str:
     """The end-of-run table: one row per mission, then the totals and the catalogue."""
-    rows = [("mission", "status", "objects", "mission min", "wall s", "x real time", "note")]
+    rows = [("mission", "status", "objects", "mission min", "wall s", "x real time", "worker peak MB", "note")]
     for m in run["missions"]:
         dur, wall = m.get("duration_s"), m.get("wall_s") or 0.0
         xrt = dur / wall if m["status"] == "done" and dur and wall else None
         rows.append((m["mission"], m["status"], _fmt(m.get("detections")),
                      _fmt(dur / 60.0 if dur else None, ".1f"), _fmt(wall, ".1f"), _fmt(xrt, ".1f"),
-                     m.get("error", "")[:100]))
+                     _fmt(m.get("peak_rss_mb"), ".0f"), m.get("error", "")[:100]))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]) - 1)]
     lines = ["  ".join(c.ljust(w) for c, w in zip(r[:-1], widths, strict=True)) + ("  " + r[-1] if r[-1] else "")
              for r in rows]

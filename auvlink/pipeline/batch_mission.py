@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 import os
+import resource
 import socket
 import threading
 import time
@@ -78,6 +79,7 @@ class Outcome:
     wall_s: float = 0.0  # worker time spent on it (checksum included)
     log_bytes: int | None = None
     worker: str = ""
+    peak_rss_mb: float | None = None  # the worker process's peak resident memory so far (MB)
     record: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
@@ -111,6 +113,7 @@ def run_mission(task: MissionTask) -> Outcome:
         except Exception as exc:  # the task's boundary: one mission's fault must not stop the batch
             out.error = f"{type(exc).__name__}: {exc}"
     out.wall_s = time.perf_counter() - t0
+    out.peak_rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3  # Linux: kB
     if out.error:
         out.status = "failed"
         out.error = " ".join(out.error.split())  # one line
