@@ -80,6 +80,7 @@ class Outcome:
     log_bytes: int | None = None
     worker: str = ""
     peak_rss_mb: float | None = None  # the worker process's peak resident memory so far (MB)
+    t_start: float = 0.0  # when the worker began it (s since the UNIX epoch)
     record: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
@@ -103,9 +104,9 @@ def _worker_name() -> str:
 
 def run_mission(task: MissionTask) -> Outcome:
     """The Dask task: skip, process or fail one mission; never raises for the mission's own faults."""
-    t0 = time.perf_counter()
     out = Outcome(task.mission, task.log, "failed", worker=_worker_name())
     with _ONE_AT_A_TIME:
+        out.t_start, t0 = time.time(), time.perf_counter()
         try:
             _run(task, out)
         except AuvlinkError as exc:
@@ -184,10 +185,11 @@ def mission_record(task: MissionTask, digest: str, result: Any, start_ns: int | 
     half_fov = _half_fov(result.geometry)
     dirs = onset_directions(setup.sonar.tilt, setup.sonar.spread, half_fov, mount_pitch=mount[1], mount_yaw=mount[2])
     cover = coverage_polygon(track, dirs, window=(setup.sonar.window_start, setup.sonar.window_end))
-    site = setup.site
-    datum = ({"latitude": site.latitude, "longitude": site.longitude}
-             if site is not None and site.latitude is not None and site.longitude is not None else None)
     georef = getattr(result, "georef", None) or {}
+    site = georef.get("datum") or setup.site  # the datum the detections' lat/lon refer to, else the config's
+    lat, lon = (site.get("latitude"), site.get("longitude")) if isinstance(site, dict) else \
+        (getattr(site, "latitude", None), getattr(site, "longitude", None))
+    datum = {"latitude": lat, "longitude": lon} if lat is not None and lon is not None else None
     duration = (end_ns - start_ns) * 1e-9 if start_ns is not None and end_ns is not None else None
     rec = {
         "format": MISSION_FORMAT, "mission": task.mission, "log": str(Path(task.log).absolute()),
