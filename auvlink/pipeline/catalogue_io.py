@@ -77,7 +77,8 @@ def object_properties(cat: Catalogue, o: SiteObject) -> dict[str, Any]:
     rms, top = o.spread()
     first, last = _times(cat, o)
     seen = set(o.seen_in)
-    return {"id": o.id, "class": o.class_name, "status": o.status, "votes": o.votes, "lat": o.lat, "lon": o.lon,
+    lat, lon = (round(o.lat, 9), round(o.lon, 9)) if o.lat is not None and o.lon is not None else (None, None)
+    return {"id": o.id, "class": o.class_name, "status": o.status, "votes": o.votes, "lat": lat, "lon": lon,
             "north": round(o.north, 3), "east": round(o.east, 3), "depth": round(o.depth, 3),
             "spread_m": round(rms, 3), "spread_max_m": round(top, 3),
             "seen_in": [m for m in o.covering if m in seen], "covered_by": o.covering,
