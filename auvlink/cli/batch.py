@@ -57,7 +57,7 @@ def summary_table(run: dict[str, Any]) -> str:
                      _fmt(m.get("peak_rss_mb"), ".0f"), m.get("error", "")[:100]))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]) - 1)]
     lines = ["  ".join(c.ljust(w) for c, w in zip(r[:-1], widths, strict=True)) + ("  " + r[-1] if r[-1] else "")
-             for r in rows]
+             for r in rows]  # the note (an error) last, unpadded
     lines.insert(1, "  ".join("-" * w for w in widths))
     counts = run["counts"]
     lines.append(f"{len(run['missions'])} mission(s): {counts.get('done', 0)} done, {counts.get('skipped', 0)} "

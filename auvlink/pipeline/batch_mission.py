@@ -117,7 +117,7 @@ def run_mission(task: MissionTask) -> Outcome:
     out.peak_rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3  # Linux: kB
     if out.error:
         out.status = "failed"
-        out.error = " ".join(out.error.split())  # one line
+        out.error = " ".join(out.error.split()).removeprefix(f"{task.log}: ")  # one line; the log is named apart
     return out
 
 
