@@ -16,6 +16,7 @@ paro       paro.digiquartz    Paroscientific Digiquartz ASCII ``*0001...`` lines
 aris       soundmetrics.aris  Sound Metrics ARIS frames (1024-byte header + image)
 didson     soundmetrics.didson  DIDSON-class live frames (96 beams x 512 samples, ARIS header)
 can        can.dbc            CAN frames of the auvlink navigation DBC (cantools)
+nmea       nmea.0183          NMEA 0183 GNSS sentences (GGA, RMC, ZDA) via pynmea2
 =========  =================  ==============================================================
 """
 
@@ -61,6 +62,7 @@ _MODULES: dict[str, str] = {
     "aris": "auvlink.codecs.aris",
     "didson": "auvlink.codecs.didson",
     "can": "auvlink.codecs.can_nav",
+    "nmea": "auvlink.codecs.nmea",
 }
 _LOADED: dict[str, WireFormat] = {}
 

@@ -61,10 +61,13 @@ def pipeline_config() -> ReconConfig:
 
 
 def demo_frames() -> SimFrames:
-    """The demo scene rendered by the simulator (smoke: its first 25 s: the sphere and the box, line 1)."""
+    """The demo scene's survey rendered by the simulator (smoke: its first 25 s: the sphere and the box, line 1);
+    without its GNSS phases on the surface, which hold no sonar target."""
+    from dataclasses import replace
+
     from auvlink.sim.scene import load_default_scene
 
-    return simulate(load_default_scene(), duration=25.0 if smoke() else None)
+    return simulate(replace(load_default_scene(), gnss=None), duration=25.0 if smoke() else None)
 
 
 def scene_frames() -> dict[str, SimFrames]:

@@ -3,8 +3,9 @@
 Run: ``auvlink bench e2e --out DIR [--full]`` (or ``python benchmarks/bench_e2e.py --out DIR [--full]``).
 
 1. Simulate a lawnmower survey into a mission log with ``auvlink sim --scene S --out LOG`` (the default
-   scene stretched by ``_sim_log.survey_scene_text``: quick 5 minutes of mission, ``--full`` 30 minutes,
-   smoke one 45 m line, about 30 s). The log is cached under ``DIR/e2e-cache`` (keyed by the scene text),
+   scene stretched by ``_sim_log.survey_scene_text``: quick 5 minutes of survey, ``--full`` 30 minutes,
+   both between the shipped scene's GNSS phases on the surface; smoke one 45 m line, about 30 s, no GNSS).
+   The log is cached under ``DIR/e2e-cache`` (keyed by the scene text),
    so a rerun only replays.
 2. ``auvlink log info LOG --json``: the mission seconds and message count, and how long ``log info`` takes.
 3. ``auvlink replay LOG --out DIR/e2e-replay --fast``: wall seconds of the child process (Python start-up,
@@ -57,6 +58,7 @@ def scene_text(minutes: float) -> str:
     sv = loads_scene(text).survey
     length = max(10.0, minutes * 60.0 * sv.speed)
     text = re.sub(r"(?m)^line_length\s*=.*$", f"line_length = {length:.3f}", text, count=1)
+    text = text.replace("[gnss]", "[gnss]\nenabled = false")  # smoke: the survey alone (no surface phases)
     return re.sub(r"(?m)^lines\s*=.*$", "lines = 1", text, count=1)
 
 

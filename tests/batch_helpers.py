@@ -1,7 +1,8 @@
 """Three short simulated surveys of one site for the batch tests (simulated once per test session).
 
-Two lawnmower lines of 36 m over four objects; the surveys are a month apart (``[sensors] start``) with
-their own seeds, and the third has the reef removed. Each log is about 52 s of mission and 21 MB.
+Two lawnmower lines of 36 m over four objects at a site with a datum; the vehicle gets GNSS fixes on the
+surface before the dive and after it (3 s each), so every mission is georeferenced. The surveys are a
+month apart (``[sensors] start``) with their own seeds, and the third has the reef removed.
 """
 
 from __future__ import annotations
@@ -21,8 +22,17 @@ OBJECTS = {  # class -> (north, east) in m
 }
 REMOVED = "reef_a"  # not in the third survey
 
+DATUM = (36.0412, 129.3915)  # the site datum (WGS84 degrees of the NED origin): Jangil Bay, Pohang
+
 SCENE = """
 seed = {seed}
+[site]
+latitude = 36.0412
+longitude = 129.3915
+[gnss]
+wait_before_s = 3.0
+wait_after_s = 3.0
+vertical_rate = 2.0
 [seabed]
 depth = 20.0
 roughness = 0.02

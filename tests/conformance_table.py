@@ -250,5 +250,6 @@ TABLE: dict[str, Entry] = {
                            2: {"type": "GGA", "quality": 0, "satellites": 0, "has_fix": False}}),
         ),
         decoys=(b"$", b"$GPGGA,", b"*7E\r\n", b"!"),
+        checksum=True,
     ),
 }

@@ -15,6 +15,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 def test_example_config_loads(name: str) -> None:
     cfg = load_config(EXAMPLES / name)
     names = [d.name for d in cfg.devices]
-    assert names == ["dvl", "gyro", "pressure", "can", "sonar"]
-    assert {d.format for d in cfg.devices} == {"pd0", "dsp1760", "keller", "can", "didson"}
+    assert names == ["dvl", "gyro", "pressure", "can", "sonar", "gnss"]
+    assert {d.format for d in cfg.devices} == {"pd0", "dsp1760", "keller", "can", "didson", "nmea"}
+    assert cfg.site is not None and (cfg.site.latitude, cfg.site.longitude) == (36.0412, 129.3915)
     assert cfg.sonar is not None and cfg.sonar.tilt_deg == 30.0

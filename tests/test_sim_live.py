@@ -59,7 +59,7 @@ def test_record_reads_every_simulated_device(tmp_path: Path) -> None:
         thread.join(10.0)
     assert not errors and not thread.is_alive()
     devices = result["devices"]
-    assert set(devices) == {"dvl", "gyro", "pressure", "can", "sonar"}
+    assert set(devices) == {"dvl", "gyro", "pressure", "can", "sonar", "gnss"}
     for name, d in devices.items():
         assert d["frames"] > 0 and d["decode_errors"] == 0 and not d["failure"], (name, d)
     assert devices["gyro"]["frames"] >= 150 and devices["sonar"]["frames"] >= 10
@@ -72,7 +72,7 @@ def test_record_reads_every_simulated_device(tmp_path: Path) -> None:
 
 def test_the_config_describes_the_vehicle() -> None:
     config = load_config(ROOT / "examples" / "virtual_ports.toml")
-    assert set(match_devices(config)) == {"dvl", "gyro", "pressure", "can", "sonar"}
+    assert set(match_devices(config)) == {"dvl", "gyro", "pressure", "can", "sonar", "gnss"}
     scene, settings = adapt(load_default_scene(), SimSettings(), config)
     assert scene.sonar.lever_arm == (1.2, 0.0, 0.1) and settings.sensors.pressure == "keller"
     assert settings.sensors.dvl_lever_arm == (0.4, 0.0, 0.25)

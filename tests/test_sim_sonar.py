@@ -153,7 +153,7 @@ def test_same_seed_same_bytes() -> None:
 def test_culling_modes_give_identical_images() -> None:
     scene = load_default_scene()
     tr = LawnmowerTrajectory.from_scene(scene)
-    p = tr.true_pose(np.arange(0.0, 60.0, 1.5))
+    p = tr.true_pose(tr.survey_start + np.arange(0.0, 60.0, 1.5))
     out = {}
     for cull in ("rays", "objects", "none"):
         rd = SonarRenderer(scene, cull=cull)

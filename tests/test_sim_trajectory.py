@@ -118,7 +118,8 @@ def test_oscillations_are_small_and_seeded() -> None:
 def test_from_default_scene() -> None:
     scene = load_default_scene()
     tr = LawnmowerTrajectory.from_scene(scene)
-    assert 120 < tr.duration < 300
+    assert 120 < tr.survey_duration < 300 and tr.surface is not None  # the shipped scene has [gnss]
+    assert tr.duration == tr.surface.t_end > tr.survey_start + tr.survey_duration
     p = tr.true_pose(np.arange(0.0, tr.duration, 0.02))  # 50 Hz truth
     assert len(p) == p.position.shape[0] == p.angular_rate_body.shape[0]
 

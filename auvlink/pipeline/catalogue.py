@@ -29,7 +29,6 @@ nothing about it: "not covered" is not "not seen".
 
 from __future__ import annotations
 
-import importlib
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
@@ -131,7 +130,10 @@ class Frame:
 
 
 def _geodesy() -> Any:
-    return importlib.import_module("auvlink.geodesy")  # the geo-referencing module (WGS84 <-> NED, PROJ)
+    """:mod:`auvlink.geodesy` (WGS84 <-> local NED by PROJ), loaded when a catalogue is geographic."""
+    from auvlink import geodesy
+
+    return geodesy
 
 
 def common_frame(missions: list[MissionData]) -> Frame:

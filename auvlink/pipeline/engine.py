@@ -12,7 +12,11 @@ time of the sample being read), in ``(receive time, arrival)`` order:
    and the settings only, never on when they arrived; frames before the navigation starts or more
    than ``max_extrapolation_s`` past it are skipped and counted;
 3. every ``poll_s`` of mission time the streaming clusterer finalizes the objects the vehicle is
-   past; each is classified at once and handed to ``on_detection``.
+   past; each is classified at once and handed to ``on_detection``;
+4. GNSS fixes and depth go to :class:`auvlink.pipeline.georef.Georef`: dead reckoning runs in its own
+   frame D (origin: the first navigation sample); a detection is handed on in W with the start anchor
+   (the pre-dive fixes), and :meth:`Engine.finish` moves every detection and the track by the drift
+   correction (the closure error after surfacing, linear in time over the submerged track).
 
 Replaying a log recorded by ``auvlink live`` with the live settings (stored in the log) therefore
 gives the live detections, apart from the frames the live run dropped (counted there).
@@ -31,6 +35,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from auvlink.geodesy import Datum
+from auvlink.pipeline.georef import Georef
 from auvlink.pipeline.latency import StageTimes
 from auvlink.pipeline.nav_inputs import Event, NavAdaptor, SonarPayload
 from auvlink.pipeline.results import Detection, StripFrame
@@ -38,6 +44,7 @@ from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from auvlink.records import Sample
 from recon.cluster import ClusterConfig, DetectedObject, dbscan_labels
 from recon.highlight import HighlightConfig
+from recon.nav import pressure_to_depth
 from recon.nav_stream import CausalNavigator
 from recon.pipeline import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
@@ -66,6 +73,7 @@ class EngineConfig:
     frame_block: int = 1  # sonar frames per reconstruction call (live: 1 for latency)
     poll_s: float = 1.0  # mission seconds between streaming-clustering polls
     max_extrapolation_s: float = 1.0  # a frame this far past the last navigation sample is skipped
+    max_pitch_deg: float = 15.0  # frames while the vehicle pitches more (diving, climbing) are skipped
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -95,6 +103,9 @@ class Engine:
         self.recon_config = recon_config or default_recon_config()
         self.nav = CausalNavigator(nav_config(setup), self.config.max_extrapolation_s)
         self.adaptor = NavAdaptor()
+        gm = setup.gnss_mounting
+        self.georef = Georef(Datum.of_site(setup.site), gm.xyz if gm is not None else (0.0, 0.0, 0.0), gm is not None)
+        self._applied: dict[int, np.ndarray] = {}  # detection id -> the D -> W shift it was handed on with
         self.times = StageTimes()
         self.detections: list[Detection] = []
         self.strip: list[StripFrame] = []
@@ -158,9 +169,17 @@ class Engine:
     def _navigate(self, events: list[Event]) -> None:
         t0 = time.perf_counter()
         d, g, p = self.adaptor.nav_inputs(events, self.t0_ns or 0)
-        if d is None and g is None and p is None:
+        gnss = [e for e in events if e.kind == "gnss"]
+        if d is None and g is None and p is None and not gnss:
             return
-        self.nav.add(d, g, p)
+        if d is not None or g is not None or p is not None:
+            self.nav.add(d, g, p)
+        if p is not None:
+            c = self.nav.config
+            self.georef.on_depth(np.asarray(p.t), pressure_to_depth(p.pressure_pa, c.seawater_density, c.gravity,
+                                                                    c.atmospheric_pa))
+        for e in gnss:
+            self.georef.on_fix(self._t(e.t_ns), e.payload, self.nav)
         self.times.add("navigation", time.perf_counter() - t0)
 
     # ------------------------------------------------------------------ frames
@@ -178,6 +197,11 @@ class Engine:
         times = np.array([self._t(t) for t, _ in group])
         ok = self.nav.covered(times)
         self.counts["frames_without_navigation"] += int((~ok).sum())
+        if ok.any():  # diving or climbing: the seabed sweeps through the beam, no survey geometry
+            _, rot = self.nav.pose_at(times[ok])
+            steep = np.abs(rot.as_euler("ZYX")[:, 1]) > np.radians(self.config.max_pitch_deg)
+            self.counts["frames_pitched"] = self.counts.get("frames_pitched", 0) + int(steep.sum())
+            ok[np.flatnonzero(ok)[steep]] = False
         for (_, fr), t in zip(group, times, strict=True):
             self._ring.append((float(t), fr.image))
         if not ok.any():
@@ -230,15 +254,26 @@ class Engine:
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
         for o, (c, s) in zip(objects, labels, strict=True):
+            shift = self.georef.shift(0.5 * (float(o.t_first) + float(o.t_last)), corrected=False)[0]
+            centre = np.asarray(o.centroid, dtype=np.float64) + shift
             det = Detection(id=int(o.id), class_name=c, score=float(s),
-                            position_ned=(float(o.centroid[0]), float(o.centroid[1]), float(o.centroid[2])),
+                            position_ned=(float(centre[0]), float(centre[1]), float(centre[2])),
                             size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
                             n_points=int(o.n_points), t_first=epoch + float(o.t_first),
-                            t_last=epoch + float(o.t_last), points=o.points)
+                            t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points)
+            self._locate(det, shift)
             self.detections.append(det)
             self._pick_strip(float(o.t_first))
             if self._on_detection is not None:
                 self._on_detection(det)
+
+    def _locate(self, det: Detection, shift: np.ndarray, correction: np.ndarray | None = None) -> None:
+        self._applied[det.id] = shift
+        self.georef.locate(det, correction)
+
+    def _georeference_final(self) -> None:
+        """End of the mission: every detection to the corrected track (closure error distributed)."""
+        self.georef.finalize(self.detections, self._applied, (self.t0_ns or 0) * 1e-9)
 
     def _pick_strip(self, t_first: float) -> None:
         if len(self.strip) >= self._strip_max or not self._ring:
@@ -262,6 +297,7 @@ class Engine:
             objs = self.rec.finish()
             self.times.add("clustering", time.perf_counter() - t0)
             self._emit(objs)
+        self._georeference_final()
         return self.detections
 
     # ------------------------------------------------------------------ reporting
@@ -272,7 +308,17 @@ class Engine:
                 "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections)}
 
     def track(self, step: int = 5) -> np.ndarray:
-        return self.nav.positions(step)[1]
+        """Vehicle positions in W (corrected for drift once the mission is finished)."""
+        t, pos = self.nav.positions(step)
+        return pos + self.georef.shift(t, corrected=self._finished) if t.size else pos
+
+    def track_table(self, step: int = 5) -> dict[str, np.ndarray]:
+        """The columns of ``track.csv`` (:meth:`auvlink.pipeline.georef.Georef.track_table`)."""
+        return self.georef.track_table(self.nav, (self.t0_ns or 0) * 1e-9, self._finished, step)
 
     def highlight_points(self) -> np.ndarray:
-        return self.rec.raw_points if self.rec is not None else np.zeros((0, 3))
+        """Every highlight-extension point in W (with the anchor; the drift correction is per detection)."""
+        if self.rec is None:
+            return np.zeros((0, 3))
+        pts = self.rec.raw_points
+        return pts + self.georef.shift(0.0, corrected=False)[0] if len(pts) else pts

@@ -15,6 +15,8 @@ track; others give no event)                   ensemble's coordinate system), va
 ``keller``                             depth   pressure (Pa) of a F73 response, paired with its request
 ``didson``, ``aris``                   sonar   :class:`SonarPayload`: image (bins, beams) uint8, window (m),
                                                beam azimuths (rad)
+``nmea`` (GGA; RMC from a receiver     gnss    :class:`auvlink.pipeline.georef.GnssPayload`: WGS84 lat/lon
+that sends no GGA; ZDA none)                   (deg, NaN without a fix), height (m), fix quality, HDOP
 =====================================  ======  ==============================================================
 
 Every other format (the CAN navigation bus, PD6 lines, the DSP-3000 integrated angle) gives no event:
@@ -45,7 +47,7 @@ from recon.nav import DepthSamples, DvlSamples, GyroSamples
 ROUTES: dict[str, tuple[str, str]] = {
     "pd0": ("dvl", "_pd0"), "dsp1760": ("gyro", "_dsp1760"), "dsp3000": ("gyro", "_dsp3000"),
     "dsp3000_incremental": ("gyro", "_dsp3000"), "paro": ("depth", "_paro"), "keller": ("depth", "_keller"),
-    "didson": ("sonar", "_sonar"), "aris": ("sonar", "_sonar")}
+    "didson": ("sonar", "_sonar"), "aris": ("sonar", "_sonar"), "nmea": ("gnss", "_nmea")}
 #: wire formats of sonar frames
 SONAR_FORMATS: tuple[str, ...] = tuple(f for f, (kind, _) in ROUTES.items() if kind == "sonar")
 #: every wire format a pipeline stage consumes; samples of any other format give no event
@@ -61,7 +63,7 @@ GyroKind = Literal["rate", "delta"]
 class Event(NamedTuple):
     t_ns: int  # host receive time, ns
     seq: int  # arrival order (1, 2, ...) among the events of one adaptor
-    kind: str  # dvl | gyro | depth | sonar
+    kind: str  # dvl | gyro | depth | sonar | gnss
     payload: Any  # DvlPayload | (3,) gyro tuple | pressure Pa | SonarPayload
 
 
@@ -101,6 +103,7 @@ class NavAdaptor:
         self.gyro_kind: GyroKind = "rate"
         self.counts: dict[str, int] = {}
         self._keller_request: dict[int, keller.KellerReadRequest] = {}
+        self._gga_devices: set[str] = set()
         self._routes: dict[str, tuple[str, Callable[[Any, str], Any]]] = {
             fmt: (kind, getattr(self, method)) for fmt, (kind, method) in ROUTES.items()}
 
@@ -156,6 +159,14 @@ class NavAdaptor:
                 if p is not None and np.isfinite(p):
                     return float(p)
         return None
+
+    def _nmea(self, r: Any, device: str) -> Any:
+        from auvlink.codecs.nmea import GgaFix
+        from auvlink.pipeline.georef import gnss_payload
+
+        if isinstance(r, GgaFix):
+            self._gga_devices.add(device)
+        return gnss_payload(r, device in self._gga_devices)
 
     @staticmethod
     def _sonar(r: Any, device: str) -> SonarPayload:

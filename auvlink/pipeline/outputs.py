@@ -1,4 +1,8 @@
-"""Write a run's outputs: ``detections.jsonl``, ``cloud.ply``, one PLY per object, ``summary.json``.
+"""Write a run's outputs: ``detections.jsonl``, ``cloud.ply``, one PLY per object, ``summary.json``, and
+the GIS files of :mod:`auvlink.pipeline.gis` (``track.csv``; with a georeference ``detections.geojson``,
+``track.geojson``, ``detections.kml``). ``summary.json``'s ``georef`` says which frame the positions are
+in (``frame``: ``site`` or ``first_navigation_sample``), the datum, the anchor, the closure error and
+the GNSS fixes used and rejected.
 
 :class:`DetectionStream` writes each detection as it is made (its PLY, then its line, flushed), so a
 live run's folder holds every object finalized so far even if the run is killed; :func:`write_outputs`
@@ -83,6 +87,9 @@ def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = Fa
     cloud = (np.concatenate([d.points for d in result.detections]) if result.detections
              else np.zeros((0, 3)))
     _write(out_dir, "cloud.ply", lambda p: write_ply(p, cloud), unwritten)
+    from auvlink.pipeline.gis import write_gis
+
+    gis_files = write_gis(result, lambda name, fn: _write(out_dir, name, fn, unwritten))
     summary = {
         "log": str(result.log),
         "detections": len(result.detections),
@@ -96,6 +103,7 @@ def write_outputs(result: MissionResult, out_dir: Path, *, keep_going: bool = Fa
         "devices": result.replay_stats,
         "log_loss": result.loss_json(),
         "scores": score_detections(result),
+        "georef": {**result.georef, "files": gis_files},
     }
     if unwritten is not None:
         summary["unwritten"] = unwritten  # the summary itself last: what it says is all that failed before it

@@ -29,7 +29,8 @@ def survey_map(result: MissionResult) -> bytes:
     fig, ax = plt.subplots(figsize=(8, 7))
     pos = result.track
     if pos.size:
-        ax.plot(pos[:, 1], pos[:, 0], "-", color="0.5", lw=1, label="navigation (causal dead reckoning)")
+        ax.plot(pos[:, 1], pos[:, 0], "-", color="0.5", lw=1, label="navigation (dead reckoning"
+                + (", GNSS-anchored, drift-corrected)" if result.georef.get("georeferenced") else ")"))
     for t in result.setup.truth:
         ax.plot(t.position_ned[1], t.position_ned[0], "s", mfc="none", mec="tab:green", ms=12)
         ax.annotate(t.class_name, (t.position_ned[1], t.position_ned[0]), xytext=(6, -12),
@@ -45,12 +46,15 @@ def survey_map(result: MissionResult) -> bytes:
     hp = result.highlight_points
     if hp is not None and hp.size:
         ax.scatter(hp[:, 1], hp[:, 0], s=1, c="tab:blue", alpha=0.3, label="highlight points")
+    from auvlink.pipeline.map_geo import decorate
+
+    title = decorate(ax, result)
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal")
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)  # beside the map: it hides nothing
-    ax.set_title("Survey map")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.12, 1.0), fontsize=8)  # beside the map: it hides nothing
+    ax.set_title(title, fontsize=10)
     return _png(fig)
 
 

@@ -144,4 +144,5 @@ def result_of(engine: Engine, log: Path | None, timings: dict[str, float], stats
                          timings=timings, latency=engine.times.summary(), replay_stats=stats,
                          recon_stats=engine.recon_stats(), loss=loss, highlight_points=engine.highlight_points(),
                          drops=dict(drops or {}), events=list(events or []), mode=mode,
-                         engine=engine.config.to_dict())
+                         engine=engine.config.to_dict(), georef=engine.georef.summary(),
+                         track_info=engine.track_table())

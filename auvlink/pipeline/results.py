@@ -31,12 +31,21 @@ class Detection:
     t_first: float
     t_last: float
     points: np.ndarray
+    #: where position_ned is: "site" (the datum, anchored to GNSS) or "first_navigation_sample"
+    frame: str = "first_navigation_sample"
+    latitude: float | None = None  # WGS84 deg, when georeferenced
+    longitude: float | None = None
+    drift_correction_ne: tuple[float, float] = (0.0, 0.0)  # m, applied at the end (closure error share)
 
     def to_json(self, cloud: str) -> dict[str, Any]:
-        return {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
-                "position_ned": [round(v, 4) for v in self.position_ned],
-                "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
-                "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud}
+        out = {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
+               "position_ned": [round(v, 4) for v in self.position_ned],
+               "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
+               "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame}
+        if self.latitude is not None and self.longitude is not None:
+            out["lat"], out["lon"] = round(self.latitude, 9), round(self.longitude, 9)
+            out["drift_correction_ne"] = [round(v, 4) for v in self.drift_correction_ne]
+        return out
 
 
 @dataclass(frozen=True)
@@ -71,6 +80,8 @@ class MissionResult:
     events: list[dict[str, Any]] = field(default_factory=list)
     mode: str = "replay"
     engine: dict[str, Any] = field(default_factory=dict)
+    georef: dict[str, Any] = field(default_factory=dict)  # datum, anchor, closure, fix counts (Georef.summary)
+    track_info: dict[str, np.ndarray] = field(default_factory=dict)  # the columns of track.csv
 
     def loss_json(self) -> dict[str, Any]:
         """What the log lost, as one JSON object: replay gives the reader's loss report (``state``,

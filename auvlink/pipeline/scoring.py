@@ -34,6 +34,23 @@ def match(det_xy: np.ndarray, truth_xy: np.ndarray, radius: float) -> list[tuple
     return pairs
 
 
+def truth_in_result_frame(result: MissionResult) -> np.ndarray:
+    """The true objects' north, east (n, 2) in the frame of the detections: with a georeference and the
+    truth's latitude / longitude, through the run's datum (PROJ), so a run whose datum is not the
+    simulator's (a replay with another ``[site]``, the first fix as the datum) is scored right; else as
+    stored (the simulator's NED)."""
+    from auvlink.geodesy import Datum
+
+    truth = result.setup.truth
+    ned = np.array([t.position_ned[:2] for t in truth], dtype=np.float64).reshape(-1, 2)
+    datum = Datum.from_dict(result.georef.get("datum")) if result.georef.get("georeferenced") else None
+    lat = [t.latitude for t in truth if t.latitude is not None]
+    lon = [t.longitude for t in truth if t.longitude is not None]
+    if datum is None or not truth or len(lat) != len(truth) or len(lon) != len(truth):
+        return ned
+    return datum.to_ned(lat, lon)[:, :2]
+
+
 def score_detections(result: MissionResult, radius: float = 1.0) -> dict[str, Any] | None:
     """Scores against the truth, or None when the log has no ground truth."""
     truth = result.setup.truth
@@ -41,7 +58,7 @@ def score_detections(result: MissionResult, radius: float = 1.0) -> dict[str, An
         return None
     dets = result.detections
     det_xy = np.array([d.position_ned[:2] for d in dets]).reshape(-1, 2)
-    truth_xy = np.array([t.position_ned[:2] for t in truth]).reshape(-1, 2)
+    truth_xy = truth_in_result_frame(result)
     pairs = match(det_xy, truth_xy, radius)
     correct = sum(1 for i, j, _ in pairs if dets[i].class_name == truth[j].class_name)
     n_det, n_truth = len(dets), len(truth)

@@ -32,6 +32,8 @@ class TruthObject:
     class_name: str
     position_ned: tuple[float, float, float]
     heading_deg: float = 0.0
+    latitude: float | None = None  # WGS84 deg (the simulator's truth carries them with its datum)
+    longitude: float | None = None
 
 
 @dataclass(frozen=True)
@@ -43,6 +45,7 @@ class MissionSetup:
     dvl_mounting: Mounting = field(default_factory=Mounting)
     pressure_mounting: Mounting = field(default_factory=Mounting)
     site: Site | None = None
+    gnss_mounting: Mounting | None = None  # the GNSS antenna (``nmea`` device); None: no GNSS receiver
     truth: tuple[TruthObject, ...] = ()
     warning: str = ""  # why the log's stored vehicle configuration was not used ("" when it was)
 
@@ -69,6 +72,7 @@ class MissionSetup:
         sonar = config.sonar.geometry() if config.sonar is not None else DEFAULT_SONAR
         sonar_dev = (config.sonar.device if config.sonar is not None else None) or "sonar"
         sonar_m = dvl_m = pressure_m = Mounting()
+        gnss_m: Mounting | None = None
         for dev in config.devices:  # a later device of a role wins, as the log's re-parse did
             if dev.name == sonar_dev or dev.format in ("didson", "aris"):
                 sonar_m = dev.mounting
@@ -76,8 +80,10 @@ class MissionSetup:
                 dvl_m = dev.mounting
             elif dev.format in ("paro", "keller"):
                 pressure_m = dev.mounting
+            elif dev.format == "nmea":
+                gnss_m = dev.mounting
         return cls(sonar=sonar, sonar_mounting=sonar_m, dvl_mounting=dvl_m, pressure_mounting=pressure_m,
-                   site=config.site, truth=truth, warning=warning)
+                   site=config.site, gnss_mounting=gnss_m, truth=truth, warning=warning)
 
     @classmethod
     def from_metadata(cls, meta: Mapping[str, object], config: VehicleConfig | None = None) -> MissionSetup:
@@ -109,7 +115,9 @@ def _truth_objects(gt: object) -> list[TruthObject]:
             continue
         try:
             p = [float(v) for v in pos] + [math.nan] * (3 - len(pos))
-            out.append(TruthObject(str(name), (p[0], p[1], p[2]), float(obj.get("heading_deg", 0.0))))
+            lat, lon = obj.get("latitude"), obj.get("longitude")
+            out.append(TruthObject(str(name), (p[0], p[1], p[2]), float(obj.get("heading_deg", 0.0)),
+                                   None if lat is None else float(lat), None if lon is None else float(lon)))
         except (TypeError, ValueError):
             continue
     return out

@@ -89,8 +89,9 @@ def simulate_dvl(traj: LawnmowerTrajectory, seabed: SeabedSurface, t: F64, senso
     mats = rot.as_matrix()  # (n, 3, 3)
     dirs = np.einsum("nij,bj->nbi", mats, beams)  # (n, 4, 3) world
     slant = np.empty((n, 4))
-    for k in range(n):
-        slant[k], _ = seabed.intersect(origin[k], dirs[k])
+    with np.errstate(invalid="ignore"):  # a beam above the horizontal (steep climb) misses: NaN, a dropout
+        for k in range(n):
+            slant[k], _ = seabed.intersect(origin[k], dirs[k])
     vertical = slant * math.cos(math.radians(BEAM_ANGLE_DEG))
 
     def draw(quantity: str, shape: tuple[int, ...], sigma: float) -> F64:

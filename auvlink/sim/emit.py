@@ -10,6 +10,8 @@ pressure  paro       one ``*0001<psi>`` line per sample, or (``keller``) an F48 
                      later, its response (as a tap on the RS-485 line sees them)
 can       can        DVL_BT_VELOCITY, DVL_ALTITUDE (per ping), GYRO_RATE, ATTITUDE (``can_hz``),
                      PRESSURE, DEPTH (per pressure sample): 16-byte raw frames of the navigation DBC
+gnss      nmea       per fix (a scene with ``[gnss]``): GGA, RMC and ZDA sentences (:mod:`auvlink.sim.gnss`;
+                     fix quality 0 and empty while the antenna is under water)
 sonar     didson     one frame per sonar pose: :class:`~auvlink.sim.sonar_render.SonarRenderer` image,
                      the scene's window, the frame time (us) and the head's heading/pitch/roll
 ========  =========  ================================================================================
@@ -34,18 +36,22 @@ from scipy.spatial.transform import Rotation
 
 from auvlink.codecs import can_nav, didson, dsp1760, keller, paro
 from auvlink.codecs import pd0 as pd0_codec
+from auvlink.sim import gnss as gnss_sim
 from auvlink.sim.dvl import pd0_ensemble
 from auvlink.sim.sensors import Measurements, pressure_to_depth
 from auvlink.sim.sonar_render import SonarRenderer
 
 #: device name -> wire format (the pressure device is ``paro`` or ``keller`` per the settings)
-DEVICES = ("dvl", "gyro", "pressure", "can", "sonar")
+DEVICES = ("dvl", "gyro", "pressure", "can", "sonar", "gnss")
 Event = tuple[int, int, int, str, bytes, int | None]
 Encoder = Callable[[Measurements, int], tuple[bytes, int | None]]
 
 
 def device_formats(m: Measurements) -> dict[str, str]:
-    return {"dvl": "pd0", "gyro": "dsp1760", "pressure": m.sensors.pressure, "can": "can", "sonar": "didson"}
+    out = {"dvl": "pd0", "gyro": "dsp1760", "pressure": m.sensors.pressure, "can": "can", "sonar": "didson"}
+    if m.gnss is not None:
+        out["gnss"] = "nmea"
+    return out
 
 
 def _ns(x: float) -> int:
@@ -135,6 +141,23 @@ def _can_depth(m: Measurements, k: int) -> tuple[bytes, int | None]:
     return _can("DEPTH", depth=depth, counter=k % 256, valid=1), None
 
 
+def _gga(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    assert m.gnss is not None
+    return gnss_sim.gga_frame(m.gnss, k, m.sensors.start_ns * 1e-9), None
+
+
+def _rmc(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    assert m.gnss is not None
+    raw, utc = gnss_sim.rmc_frame(m.gnss, k, m.sensors.start_ns * 1e-9)
+    return raw, _ns(utc)
+
+
+def _zda(m: Measurements, k: int) -> tuple[bytes, int | None]:
+    assert m.gnss is not None
+    raw, utc = gnss_sim.zda_frame(m.gnss, k, m.sensors.start_ns * 1e-9)
+    return raw, _ns(utc)
+
+
 def _substreams(m: Measurements) -> list[tuple[str, np.ndarray, Encoder]]:
     """``(device, emission times, encoder)`` in tie-break order (the sonar is handled apart)."""
     p = m.pressure.t
@@ -146,11 +169,14 @@ def _substreams(m: Measurements) -> list[tuple[str, np.ndarray, Encoder]]:
                     ("pressure", p + m.sensors.keller_latency_s, _keller_response)]
     else:
         pressure = [("pressure", p, _paro)]
+    gnss: list[tuple[str, np.ndarray, Encoder]] = []
+    if m.gnss is not None:
+        gnss = [("gnss", m.gnss.t, _gga), ("gnss", m.gnss.t, _rmc), ("gnss", m.gnss.t, _zda)]
     return [
         ("gyro", m.gyro.t, _gyro), ("dvl", m.dvl.t, _dvl), *pressure,
         ("can", m.ahrs.t, _can_gyro), ("can", m.ahrs.t, _can_attitude),
         ("can", m.dvl.t, _can_dvl_velocity), ("can", m.dvl.t, _can_dvl_altitude),
-        ("can", p, _can_pressure), ("can", p, _can_depth),
+        ("can", p, _can_pressure), ("can", p, _can_depth), *gnss,
     ]
 
 

@@ -4,8 +4,8 @@
 
 The configuration is the one ``auvlink record`` and ``auvlink live`` read, unchanged. Each of its
 devices is matched to a simulated instrument by its wire format (``pd0`` DVL, ``dsp1760`` gyro,
-``paro`` or ``keller`` pressure, ``can`` navigation bus, ``didson`` sonar) and served where its URL
-points:
+``paro`` or ``keller`` pressure, ``can`` navigation bus, ``didson`` sonar, ``nmea`` GNSS receiver: silent
+when the scene has no ``[gnss]``) and served where its URL points:
 
 - a serial URL (``/tmp/auvlink/dvl?baudrate=115200``): a :class:`~auvlink.virtual.PtyPair` whose
   slave is symlinked at that path (parent folders created). Lossy like a UART: bytes nobody reads
@@ -17,7 +17,8 @@ points:
 
 The configuration also describes the vehicle, so it wins over the scene: the DVL and pressure
 lever arms, the DVL mounting angles, the sonar's lever arm, tilt, spread and window, and the
-pressure sensor's kind come from it. Frames go out at ``speed`` x real time (an absolute schedule:
+pressure sensor's kind and the GNSS antenna's lever arm come from it (the site datum is the scene's:
+it is where the world is, not the vehicle). Frames go out at ``speed`` x real time (an absolute schedule:
 no drift) for ``duration`` s (default: the survey); :func:`serve` returns when the run ends or
 ``stop`` is set, and closes every port (the symlinks are removed). A :class:`PortHook` passed to
 :func:`serve` stands between the schedule and the ports (the live-loop tests inject faults with
@@ -52,7 +53,7 @@ from auvlink.virtual_pty import PtyPair
 from auvlink.virtual_slcan import SlcanAdapter
 
 ROLES = {"pd0": "dvl", "dsp1760": "gyro", "paro": "pressure", "keller": "pressure", "can": "can",
-         "didson": "sonar"}
+         "didson": "sonar", "nmea": "gnss"}
 BLOCK_S = 1.0
 
 
@@ -183,6 +184,8 @@ def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[S
             raise SimError(f"device {devices['pressure'].name!r}: no simulated pressure sensor speaks {kind!r}")
         s = replace(s, pressure=cast(Literal["paro", "keller"], kind),
                     pressure_lever_arm=devices["pressure"].mounting.xyz)
+    if "gnss" in devices and scene.gnss is not None:
+        scene = replace(scene, gnss=replace(scene.gnss, lever_arm=devices["gnss"].mounting.xyz))
     sonar = scene.sonar
     if "sonar" in devices:
         sonar = replace(sonar, lever_arm=devices["sonar"].mounting.xyz)

@@ -106,6 +106,15 @@ def prepare(scene: Scene, seed: int | None = None, duration: float | None = None
     return Run(scene, settings, traj, measure(scene, settings, duration, traj))
 
 
+def surface_phases(traj: LawnmowerTrajectory) -> dict[str, float] | None:
+    """Mission times (s) of the surface phases: dive, survey start, climb, surfaced, end (None without)."""
+    sp = traj.surface
+    if sp is None:
+        return None
+    return {"t_dive_s": sp.t_wait0, "t_survey_s": sp.t_survey, "t_climb_s": sp.t_climb0,
+            "t_surfaced_s": sp.t_surfaced, "t_end_s": sp.t_end}
+
+
 def truth_pose(run: Run) -> TruePose:
     return run.trajectory.true_pose(sample_times(run.settings.sensors.truth_hz, run.duration))
 
@@ -175,7 +184,8 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
     n_workers = default_workers(run) if workers is None else max(1, workers)
     formats = device_formats(run.measurements)
     start = run.settings.sensors.start_ns
-    meta, attachments = ground_truth(run.scene, run.settings, run.duration, truth_pose(run), formats)
+    meta, attachments = ground_truth(run.scene, run.settings, run.duration, truth_pose(run), formats,
+                                     surface_phases(run.trajectory))
     topic_hz = run.settings.sensors.truth_topic_hz
     topic_t = sample_times(topic_hz, run.duration) if topic_hz > 0 else np.zeros(0)
     truth_ns = [start + round(t * 1e9) for t in topic_t.tolist()]

@@ -17,6 +17,10 @@ Optional keys beyond the architecture's table (all with defaults):
   (1.0), ``pitch_amplitude_deg`` (0.5), ``yaw_amplitude_deg`` (0.5), ``roll_period_s`` (7.0),
   ``pitch_period_s`` (11.0), ``yaw_period_s`` (17.0): the small seeded attitude oscillations.
 - ``[sensors]`` and ``[noise]``: the simulator settings (:mod:`auvlink.sim.settings` validates them).
+- ``[gnss]``: the GNSS receiver and the surface phases of the mission (:mod:`auvlink.sim.gnss_config`).
+
+Without ``[site]`` (or with only one of its keys) the scene's datum (:attr:`Scene.datum`) is Jangil Bay,
+Pohang (36.0412 N, 129.3915 E), where the paper's field trial ran.
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ from pydantic import Field
 from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
+from auvlink.geodesy import JANGIL_BAY, Datum
+from auvlink.sim.gnss_config import Gnss, check_gnss
 from auvlink.sonar import MAX_LEVER_M, Sonar
 from auvlink.validation import CONFIG, Integer, Number, Site, Vec2, Vec3, loads_toml, read_toml, validate
 
@@ -139,6 +145,7 @@ class SceneFile:
     vehicle: Vehicle = field(default_factory=Vehicle)
     sensors: dict[str, Any] | None = None
     noise: dict[str, Any] | bool | None = None
+    gnss: Gnss | None = None
 
 
 @dataclass(frozen=True)
@@ -151,6 +158,15 @@ class Scene:
     vehicle: Vehicle = field(default_factory=Vehicle)
     source: str = ""  # file the scene came from ("" when built in code)
     site: Site | None = None
+    gnss: Gnss | None = None  # None: no GNSS receiver, the mission is the survey alone
+
+    @property
+    def datum(self) -> Datum:
+        """The WGS84 datum of the scene's NED frame: ``[site]``, else Jangil Bay (Pohang)."""
+        s = self.site
+        if s is None or s.latitude is None or s.longitude is None:
+            return Datum(*JANGIL_BAY)
+        return Datum(float(s.latitude), float(s.longitude))
 
 
 def parse_scene(doc: Any, source: str = "") -> Scene:
@@ -180,7 +196,8 @@ def parse_scene(doc: Any, source: str = "") -> Scene:
                           f"beyond the {MAX_MISSION_S:.0f} s (12 h) limit",
                           "use fewer or shorter lines, or a higher speed")
     return Scene(seed=f.seed, seabed=f.seabed, objects=tuple(o.scene_object() for o in f.objects),
-                 survey=f.survey, sonar=f.sonar, vehicle=f.vehicle, source=source, site=f.site)
+                 survey=f.survey, sonar=f.sonar, vehicle=f.vehicle, source=source, site=f.site,
+                 gnss=check_gnss(f.gnss))
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -15,6 +15,7 @@ encoding of these values is :mod:`auvlink.sim.emit`. Models:
   ``101325 + 1025 * 9.80665 * depth`` Pa (the constants of ``recon.nav``) plus white noise (a
   fraction of full scale). Sent as Paroscientific lines (psi) or Keller F73 pairs (bar).
 - **AHRS** (``can_hz``): the attitude on the CAN bus, truth plus white noise.
+- **GNSS** (a scene with ``[gnss]``, ``rate_hz``): :mod:`auvlink.sim.gnss`.
 - **Sonar** (``fps`` of the scene): the body pose at each frame time, and the head's own attitude
   ``R_WS = R_WB Ry(-tilt)`` (what a DIDSON's compass and tilt sensor report in its header).
 """
@@ -30,6 +31,7 @@ from scipy.signal import lfilter
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.dvl import DvlSeries, simulate_dvl
+from auvlink.sim.gnss import GnssSeries, simulate_gnss
 from auvlink.sim.noise import NoiseConfig, stream_rng
 from auvlink.sim.scene import Scene
 from auvlink.sim.seabed import SeabedSurface
@@ -97,6 +99,7 @@ class Measurements:
     pressure: PressureSeries
     ahrs: AhrsSeries
     sonar: SonarPoses
+    gnss: GnssSeries | None = None  # a scene with [gnss]
 
     @property
     def sensors(self) -> SensorSettings:
@@ -177,4 +180,6 @@ def measure(scene: Scene, settings: SimSettings, duration: float | None = None,
         pressure=simulate_pressure(traj, sample_times(s.pressure_hz, dur), settings, seed),
         ahrs=simulate_ahrs(traj, sample_times(s.can_hz, dur), settings, seed),
         sonar=sonar_poses(traj, scene, sample_times(scene.sonar.fps, dur)),
+        gnss=None if scene.gnss is None else simulate_gnss(traj, sample_times(scene.gnss.rate_hz, dur), scene.gnss,
+                                                           scene.datum, seed),
     )

@@ -46,6 +46,7 @@ URLS = {
     "pressure": "/tmp/auvlink/pressure?baudrate=9600",
     "can": "can://slcan//tmp/auvlink/can?bitrate=500000",
     "sonar": "tcp://127.0.0.1:5600",
+    "gnss": "/tmp/auvlink/gnss?baudrate=9600",
 }
 
 
@@ -64,6 +65,8 @@ def vehicle_config_text(scene: Scene, settings: SimSettings) -> str:
         ("pressure", s.pressure, s.pressure_lever_arm, (0.0, 0.0, 0.0)),
         ("can", "can", None, None), ("sonar", "didson", sonar.lever_arm, (0.0, 0.0, 0.0)),
     ]
+    if scene.gnss is not None:
+        devices.append(("gnss", "nmea", scene.gnss.lever_arm, (0.0, 0.0, 0.0)))
     for name, fmt, xyz, rpy in devices:
         dev = f'[[devices]]\nname = "{name}"\nformat = "{fmt}"\nurl = "{URLS[name]}"'
         if xyz is not None and rpy is not None:
@@ -72,6 +75,8 @@ def vehicle_config_text(scene: Scene, settings: SimSettings) -> str:
     rows.append(f'[sonar]\ndevice = "sonar"\ntilt_deg = {sonar.tilt_deg!r}\nspread_deg = {sonar.spread_deg!r}\n'
                 f"window_start = {sonar.window_start!r}\nwindow_length = {sonar.window_length!r}")
     rows.append('[can]\ndbc = "auvlink_nav.dbc"')
+    site = scene.datum
+    rows.append(f"[site]\nlatitude = {site.latitude!r}\nlongitude = {site.longitude!r}")
     return "\n\n".join(rows) + "\n"
 
 
@@ -110,8 +115,10 @@ def npy_bytes(array: NDArray[Any]) -> bytes:
 
 
 def ground_truth(scene: Scene, settings: SimSettings, duration: float, pose: TruePose,
-                 devices: dict[str, str]) -> tuple[dict[str, Any], dict[str, bytes]]:
-    """The ``ground_truth`` metadata and its attachments (name -> bytes)."""
+                 devices: dict[str, str], phases: dict[str, float] | None = None
+                 ) -> tuple[dict[str, Any], dict[str, bytes]]:
+    """The ``ground_truth`` metadata and its attachments (name -> bytes); ``phases``: mission times of the
+    surface phases (a scene with ``[gnss]``)."""
     seabed = SeabedSurface(scene.seabed, scene.seed)
     attachments: dict[str, bytes] = {}
     objects = []
@@ -129,6 +136,10 @@ def ground_truth(scene: Scene, settings: SimSettings, duration: float, pose: Tru
             "bbox_min_ned": lo.tolist(), "bbox_max_ned": hi.tolist(), "mesh": name,
         })
     attachments[TRAJECTORY_ATTACHMENT] = npy_bytes(trajectory_array(pose, settings.sensors.start_ns))
+    if objects:
+        lat, lon, _ = scene.datum.to_geodetic([o["position_ned"] for o in objects])
+        for o, a, b in zip(objects, lat.tolist(), lon.tolist(), strict=True):
+            o["latitude"], o["longitude"] = a, b
     rate = settings.sensors.truth_hz
     data = {
         "generator": f"auvlink.sim {__version__}",
@@ -146,7 +157,10 @@ def ground_truth(scene: Scene, settings: SimSettings, duration: float, pose: Tru
         "trajectory": {"attachment": TRAJECTORY_ATTACHMENT, "rate_hz": rate, "samples": len(pose),
                        "fields": list(TRAJECTORY_DTYPE.names or ()), "pose_topic": POSE_TOPIC,
                        "pose_topic_hz": settings.sensors.truth_topic_hz},
-        "frames": "world: local NED (m), origin on the surface; body: FRD; R_WB = Rz(yaw) Ry(pitch) Rx(roll)",
+        "frames": "world: local NED (m), origin on the surface at the site datum (WGS84, 'site'); body: FRD; "
+                  "R_WB = Rz(yaw) Ry(pitch) Rx(roll)",
         "seabed_depth_at_origin_m": float(seabed.depth(0.0, 0.0)),
+        "site": scene.datum.to_dict(),
+        "gnss": None if scene.gnss is None else {**to_jsonable(asdict(scene.gnss)), **(phases or {})},
     }
     return data, attachments
