@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from recon.cluster_index import FinalizedIndex
 from recon.errors import ReconError
+from recon.fusion import FusionConfig, ObjectStore
 
 F64 = NDArray[np.float64]
 
@@ -53,6 +54,7 @@ class ClusterConfig:
     margin: float = 2.0  # m
     noise_keep_s: float = 60.0
     footprint_gap: float = 0.8  # m: merge clusters whose horizontal boxes come this close (0 = off)
+    fusion: FusionConfig = field(default_factory=FusionConfig)  # later passes fused into finalized objects
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +70,8 @@ class DetectedObject:
     t_last: float
     times: F64 = field(repr=False, default_factory=lambda: np.zeros(0))
     extra: F64 = field(repr=False, default_factory=lambda: np.zeros((0, 0)))  # per-point columns
+    seabed_depth: float = float("nan")  # m, NED: the seabed under the object (recon's model of the poll)
+    passes: tuple[tuple[float, float], ...] = ()  # time spans (s) of the passes fused into it (recon.fusion)
 
     @property
     def size(self) -> F64:
@@ -77,7 +81,7 @@ class DetectedObject:
         """The geometric part of a detections.jsonl line (class and score come from classify)."""
         return {"id": self.id, "position_ned": [float(v) for v in self.centroid],
                 "size": [float(v) for v in self.extent], "n_points": self.n_points,
-                "t_first": self.t_first, "t_last": self.t_last}
+                "t_first": self.t_first, "t_last": self.t_last, "passes": [list(p) for p in self.passes]}
 
 
 def voxel_downsample(points: F64, voxel: float) -> tuple[F64, NDArray[np.int64]]:
@@ -147,11 +151,13 @@ def robust_centre(pts: F64, q: float = 2.0) -> F64:
     return np.asarray(0.5 * (lo + hi), dtype=np.float64)
 
 
-def make_object(i: int, pts: F64, ts: F64, extra: F64 | None = None) -> DetectedObject:
+def make_object(i: int, pts: F64, ts: F64, extra: F64 | None = None,
+                passes: tuple[tuple[float, float], ...] | None = None) -> DetectedObject:
     """A :class:`DetectedObject` from its points (centroid: :func:`robust_centre`, extent: min-max box)."""
     return DetectedObject(id=i, centroid=robust_centre(pts), extent=pts.max(axis=0) - pts.min(axis=0),
                           points=pts, n_points=int(pts.shape[0]), t_first=float(ts.min()),
-                          t_last=float(ts.max()), times=ts, extra=_extra(extra, pts.shape[0]))
+                          t_last=float(ts.max()), times=ts, extra=_extra(extra, pts.shape[0]),
+                          passes=passes if passes is not None else ((float(ts.min()), float(ts.max())),))
 
 
 def merge_footprints(points: F64, labels: NDArray[np.int64], gap: float) -> NDArray[np.int64]:
@@ -215,8 +221,10 @@ class StreamingClusterer:
         self._ts: list[F64] = []
         self._ex: list[F64] = []
         self._final = FinalizedIndex(self.config.eps, self.config.footprint_gap)
+        self._store = ObjectStore(self.config.footprint_gap, self.config.fusion)
         self._next_id = 0
         self.late_points = 0
+        self.fused_points = 0
         self.pruned_points = 0
 
     def add(self, points: ArrayLike, times: ArrayLike, extra: ArrayLike | None = None) -> None:
@@ -227,13 +235,20 @@ class StreamingClusterer:
         e = _extra(extra, p.shape[0])
         if self._ex and self._ex[0].shape[1] != e.shape[1]:
             raise ReconError(f"extra columns changed from {self._ex[0].shape[1]} to {e.shape[1]}")
-        if len(self._final):  # only the finalized objects near these points are tested (recon.cluster_index)
+        if len(self._final) and not self.config.fusion.enabled:  # only the objects near these points are tested
             late = self._final.late(p)
             self.late_points += int(late.sum())
             p, t, e = p[~late], t[~late], e[~late]
         self._pts.append(p)
         self._ts.append(t)
         self._ex.append(e)
+
+    def bounds(self) -> tuple[F64, F64] | None:
+        """Horizontal box (lo, hi) of the points not yet emitted; None when there are none."""
+        p = self._active()[0]
+        if p.shape[0] == 0:
+            return None
+        return p[:, :2].min(axis=0), p[:, :2].max(axis=0)
 
     @property
     def n_active(self) -> int:
@@ -276,13 +291,22 @@ class StreamingClusterer:
         return self._emit(done)
 
     def _emit(self, done: list[Group]) -> list[DetectedObject]:
+        """New objects get the next id; a cluster next to a finalized object is fused into it and the
+        object is emitted again, same id, with every pass's points (:mod:`recon.fusion`)."""
         done.sort(key=lambda g: (float(g[1].min()), float(g[0][:, 0].mean())))
-        out = []
+        out: dict[int, DetectedObject] = {}
         for pts, ts, ex in done:
-            out.append(make_object(self._next_id, pts, ts, ex))
-            self._next_id += 1
-            self._final.add(pts)
-        return out
+            i = self._store.nearest(pts)
+            if i is None:
+                i = self._next_id
+                self._next_id += 1
+                obj = self._store.add(i, pts, ts, ex)
+                self._final.add(pts)
+            else:
+                obj = self._store.fuse(i, pts, ts, ex)
+                self.fused_points += int(pts.shape[0])
+            out[i] = make_object(i, obj.points, obj.times, obj.extra, tuple(obj.passes))
+        return list(out.values())
 
     def flush(self) -> list[DetectedObject]:
         """End of mission: every remaining cluster is final."""

@@ -27,7 +27,9 @@ from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude
 from recon.front_slope import arc_columns, carve_keep, replace_on_arcs
 from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project, returns_between
-from recon.seabed import SeabedConfig, SeabedModel, object_mask
+from recon.poll_seabed import object_points, on_seabed
+from recon.seabed import SeabedConfig, SeabedModel
+from recon.seabed_texture import SeabedCells, TextureConfig, TexturedSeabed, fit_textured
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
@@ -59,6 +61,11 @@ class ReconConfig:
     onset_radius: float = 30.0  # m of seabed points around the vehicle used for that fit
     onset_refit_frames: int = 100  # refit that seabed at most this often (unless the vehicle left it)
     seabed_beam_step: int = 4  # sonar seabed returns from every n-th beam
+    texture: TextureConfig = field(default_factory=TextureConfig)  # the seabed at the scale of its texture
+    texture_beam_step: int = 2  # seabed returns of every frame from every n-th beam feed the texture grid
+    max_object_extent: float = 4.5  # m: a cluster wider than any catalogue object (3 m) + navigation blur
+    min_object_height: float = 0.15  # m: an object's top (95th percentile) stands at least this high
+    flank_radius: float = 0.5  # m: points above the planes this near a point of an object's top are kept
 
 
 class Reconstructor:
@@ -80,6 +87,9 @@ class Reconstructor:
         self._onset_cache: tuple[F64, F64, int, SeabedModel] | None = None
         self._onset_fit_frame = 0
         self._stream: StreamingClusterer | None = None
+        self._cells = SeabedCells(self.config.texture.cell)  # filled only with the texture grid on
+        self.seabed: TexturedSeabed | SeabedModel | None = None  # the model of the latest poll
+        self.rejected: dict[str, int] = {"too_wide": 0, "too_low": 0}
         self.objects: list[DetectedObject] = []
         self.frames = 0
         self.frames_with_points = 0
@@ -97,6 +107,8 @@ class Reconstructor:
         if p.shape[0]:
             self._seabed.append(p)
             self._n_seabed += p.shape[0]
+            if self.config.texture.enabled:
+                self._cells.add(p)
 
     def add_frame(self, t: float, image: NDArray[np.uint8]) -> int:
         """One frame; returns the number of highlight-extension points it gave."""
@@ -119,17 +131,29 @@ class Reconstructor:
         limits = onset_rows(g, onset, hc.margin_m)
         thr = frame_thresholds(imgs, int(limits.min(initial=g.n_bins)), hc)
         fi, bi, ri = first_returns(imgs, limits, thr, hc)
-        if self.config.seabed_every > 0:
-            sel = np.flatnonzero((self.frames + np.arange(ts.size)) % self.config.seabed_every == 0)
+        tex = self.config.texture.enabled
+        if self.config.seabed_every > 0 or tex:
+            nth = max(1, self.config.seabed_every)
+            every_frame = (self.frames + np.arange(ts.size)) % nth == 0
+            sel = np.arange(ts.size) if tex else np.flatnonzero(every_frame)
             if sel.size:
                 hi = onset_rows(g, onset[sel], hc.margin_m - self.config.seabed_band_m)
                 sf, sb, sr = returns_between(imgs[sel], limits[sel], hi, thr[sel], hc.min_run)
-                step = max(1, self.config.seabed_beam_step)
-                every = sb % step == 0
-                sf, sb, sr = sf[every], sb[every], sr[every]
-                sp = project(g, sf, sb, sr, pos[sel], rot[sel], "exact")
-                self.add_seabed_points(sp)
+                dense = sb % max(1, self.config.texture_beam_step) == 0
+                sparse = (sb % max(1, self.config.seabed_beam_step) == 0) & every_frame[sel][sf]
+                if self.config.seabed_every <= 0:
+                    sparse[:] = False
+                keep = dense | sparse
+                sp = project(g, sel[sf[keep]], sb[keep], sr[keep], pos, rot, "exact")
+                if tex:
+                    self._cells.add(sp[dense[keep]])
+                sp = sp[sparse[keep]]
+                if sp.shape[0]:
+                    self._seabed.append(np.asarray(sp, dtype=np.float64))
+                    self._n_seabed += sp.shape[0]
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
+        if tex and fi.size:  # the first returns before the onset: seabed crests (and objects, clipped)
+            self._cells.add(pts)
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if self._arc else np.zeros((fi.size, 0))
         if self.config.front_slope and self.config.front_slope_method == "carve":
             keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)
@@ -249,22 +273,51 @@ class Reconstructor:
     def _arc(self) -> bool:
         return self.config.front_slope and self.config.front_slope_method == "arc"
 
+    def _fit_seabed(self, lo: F64, hi: F64) -> TexturedSeabed | SeabedModel | None:
+        """The seabed over the box ``lo``-``hi`` (north, east), fitted once per poll: tiled planes from the
+        seabed points around it, and on them the texture grid (:mod:`recon.seabed_texture`)."""
+        pad = self.config.seabed.tile * 2.0
+        near = self._seabed_within(lo - pad, hi + pad)
+        if near is None:
+            return None
+        try:
+            coarse = SeabedModel.fit(near, self.config.seabed)
+        except ReconError:
+            return None
+        if not self.config.texture.enabled:
+            return coarse
+        m = max(self.config.texture.context_m, self.config.texture.window_m + self.config.texture.cell)
+        return fit_textured(self._cells, coarse, lo - m, hi + m, self.config.texture)
+
     def _filtered_pending(self) -> tuple[F64, F64, F64]:
         if not self._pending:
-            return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 10 if self._arc else 0))
-        p = np.concatenate([a for a, _, _ in self._pending])
-        t = np.concatenate([b for _, b, _ in self._pending])
-        e = np.concatenate([c for _, _, c in self._pending])
+            p, t, e = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 10 if self._arc else 0))
+        else:
+            p = np.concatenate([a for a, _, _ in self._pending])
+            t = np.concatenate([b for _, b, _ in self._pending])
+            e = np.concatenate([c for _, _, c in self._pending])
         self._pending = []
         if not self.config.remove_seabed or not self._seabed:
             return p, t, e
-        pad = self.config.seabed.tile * 2.0
-        near = self._seabed_within(p[:, :2].min(axis=0) - pad, p[:, :2].max(axis=0) + pad)
-        if near is None:
+        if p.shape[0] == 0:
             return p, t, e
-        keep = object_mask(p, SeabedModel.fit(near, self.config.seabed), self.config.seabed)
+        model = self._fit_seabed(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
+        if model is None:
+            return p, t, e
+        self.seabed = model
+        keep = object_points(p, model, self.config.seabed, self.config.min_object_height, self.config.flank_radius)
         self.seabed_removed += int((~keep).sum())
         return p[keep], t[keep], e[keep]
+
+    def _objects_on_seabed(self, objects: list[DetectedObject]) -> list[DetectedObject]:
+        """Each object with the seabed depth under it, clutter rejected (:func:`recon.poll_seabed.on_seabed`)."""
+        model = self.seabed
+        if objects and isinstance(model, TexturedSeabed):
+            lo = np.min([o.points[:, :2].min(axis=0) for o in objects], axis=0)
+            hi = np.max([o.points[:, :2].max(axis=0) for o in objects], axis=0)
+            if not model.covers(lo, hi):  # objects finalized away from this poll's new points
+                model = self._fit_seabed(lo, hi) or model
+        return on_seabed(objects, model, self.config.max_object_extent, self.config.min_object_height, self.rejected)
 
     def _finalize(self, objects: list[DetectedObject]) -> list[DetectedObject]:
         """Front-slope correction (arc method) of final objects: points, extent, centroid (+ hidden far side)."""
@@ -273,8 +326,9 @@ class Reconstructor:
         c, out = self.config, []
         for o in objects:
             f = make_object(o.id, replace_on_arcs(o.points, o.extra, self.geometry.spread, c.front_slope_length,
-                                                  c.front_slope_width), o.times, o.extra)
-            out.append(replace(f, centroid=far_side_centre(f.centroid, f.points, f.extra, c.far_side)))
+                                                  c.front_slope_width), o.times, o.extra, o.passes)
+            out.append(replace(f, centroid=far_side_centre(f.centroid, f.points, f.extra, c.far_side),
+                               seabed_depth=o.seabed_depth))
         return out
 
     def poll(self, vehicle_position: ArrayLike, t_now: float | None = None) -> list[DetectedObject]:
@@ -283,7 +337,8 @@ class Reconstructor:
             self._stream = StreamingClusterer(self.config.cluster)
         p, t, e = self._filtered_pending()
         self._stream.add(p, t, e)
-        out = self._finalize(self._stream.poll(vehicle_position, self._t_last if t_now is None else t_now))
+        out = self._finalize(self._objects_on_seabed(
+            self._stream.poll(vehicle_position, self._t_last if t_now is None else t_now)))
         self.objects.extend(out)
         return out
 
@@ -295,6 +350,6 @@ class Reconstructor:
         else:
             self._stream.add(p, t, e)
             out = self._stream.flush()
-        out = self._finalize(out)
+        out = self._finalize(self._objects_on_seabed(out))
         self.objects.extend(out)
         return out

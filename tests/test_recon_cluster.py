@@ -43,7 +43,7 @@ def test_one_cluster_per_object() -> None:
     for o in objs:
         assert o.n_points == o.points.shape[0] >= 380
         assert np.all(o.extent > 0) and o.t_first <= o.t_last
-        assert set(o.to_dict()) == {"id", "position_ned", "size", "n_points", "t_first", "t_last"}
+        assert set(o.to_dict()) == {"id", "position_ned", "size", "n_points", "t_first", "t_last", "passes"}
 
 
 def test_open3d_and_sklearn_agree() -> None:
@@ -152,10 +152,32 @@ def test_finalized_index_matches_brute_force(seed: int, gap: float, eps: float, 
     assert np.array_equal(got, ref)
 
 
-def test_streaming_revisits_dropped_as_late() -> None:
-    """A second pass over finalized objects adds no object; its points are counted as late."""
+def test_streaming_revisits_fused_into_the_same_objects() -> None:
+    """A second pass over finalized objects adds no object: each is emitted again with the same id, with
+    both passes' points (recon.fusion)."""
     p, t = _scene(np.random.default_rng(5))
     sc = StreamingClusterer()
+    out = []
+    for rnd, shift in ((0, 0.0), (1, 70.0)):  # the same points again, 70 s later (the next survey line)
+        for now in np.arange(0.0, 62.0, 1.0):
+            sel = (t >= now - 1.0) & (t < now)
+            sc.add(p[sel], t[sel] + shift)
+            out += sc.poll([now, 0.0 if rnd == 0 else 3.0, 15.0], now + shift)
+    out += sc.flush()
+    first = {o.id: o for o in out[:6]}
+    assert len(first) == 6 and len(out) == 12
+    for o in out[6:]:
+        assert o.n_points == 2 * first[o.id].n_points and len(o.passes) == 2
+        assert o.passes[1][0] >= 70.0
+    assert sc.fused_points == sum(o.n_points for o in first.values())
+
+
+def test_streaming_revisits_dropped_as_late_without_fusion() -> None:
+    """With fusion off, a second pass adds no object; its points are counted as late and dropped."""
+    from recon.fusion import FusionConfig
+
+    p, t = _scene(np.random.default_rng(5))
+    sc = StreamingClusterer(ClusterConfig(fusion=FusionConfig(enabled=False)))
     out = []
     for rnd, shift in ((0, 0.0), (1, 70.0)):  # the same points again, 70 s later (the next survey line)
         for now in np.arange(0.0, 62.0, 1.0):

@@ -9,6 +9,12 @@ confusion matrix, look-alike pair confusions) and ``DIR/confusion.png``.
 objects (:mod:`auvlink.evaluation.recon_eval`: 8 headings x 2 tilts x 2 altitudes x 2 lateral offsets per
 class, seed 11; with ``--quick`` 3 headings x 1 tilt x 2 altitudes), cached under ``--cache``.
 
+``--surveys N [--seed S] [--workers K] [--json] [--keep-logs]``: instead, draw N random surveys
+from the condition space (:mod:`auvlink.evaluation.draw`), simulate each into a log, replay it
+through the pipeline and score the detections (1 m and 2 m, the class must match) overall, per
+factor bin and by failure kind (:mod:`auvlink.evaluation.surveys`); writes ``DIR/surveys.json``
+and ``DIR/surveys.png`` and prints the table (``--json``: the pooled figures as JSON). Default seed 1.
+
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
 simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
 and write ``DIR/baseline2d.json`` and ``DIR/baseline2d_confusion.png`` beside the PointNet figures.
@@ -41,12 +47,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="a thinner held-out set (every 3rd heading, 2 tilts, 1 draw)")
     p.add_argument("--recon", action="store_true",
                    help="evaluate on clouds recon reconstructs from simulated passes (not synthesized clouds)")
+    p.add_argument("--surveys", type=int, default=None, metavar="N",
+                   help="evaluate the whole pipeline on N random surveys (simulate, replay, score)")
+    p.add_argument("--workers", type=int, default=2, help="--surveys: worker processes (default 2)")
+    p.add_argument("--json", action="store_true", help="--surveys: print the pooled figures as JSON")
+    p.add_argument("--small", action="store_true", help="--surveys: 2 lines and 2 objects each (CI smoke)")
+    p.add_argument("--keep-logs", action="store_true", help="--surveys: keep each survey's mission.mcap")
     p.add_argument("--baseline2d", action="store_true",
                    help="also train and evaluate the single-image 2D CNN baseline (a few minutes)")
     p.add_argument("--force", action="store_true", help="write into a non-empty DIR (files of the same names replaced)")
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.surveys is not None:
+        return _surveys(args)
     # lazy: PyTorch, Open3D and SciPy load only for this command (the parser imports every subcommand module)
     from auvlink.evaluation.recon_eval import evaluate_recon, reconstruct_set, standard_passes
 
@@ -103,3 +117,27 @@ def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Pat
     print(f"PointNet above: macro precision {pn['precision']:.3f}, recall {pn['recall']:.3f}; 2D baseline: "
           f"{rep.macro()['precision']:.3f}, {rep.macro()['recall']:.3f}")
     print(f"written: {args.out / 'baseline2d.json'}, {png}")
+
+
+def _surveys(args: argparse.Namespace) -> int:
+    from auvlink.errors import AuvlinkError
+    from auvlink.evaluation.surveys import run_surveys
+    from auvlink.evaluation.tables import plot, text_table
+    from auvlink.jsonutil import to_jsonable
+
+    if args.surveys < 1:
+        raise AuvlinkError(f"--surveys must be >= 1, got {args.surveys}")
+    if args.workers < 1:
+        raise AuvlinkError(f"--workers must be >= 1, got {args.workers}")
+    check_output_dir(args.out, force=args.force)  # the surveys' folders of an earlier run are replaced
+    seed = 1 if args.seed is None else args.seed
+    result = run_surveys(args.surveys, seed, args.out, workers=args.workers, model=args.model,
+                         keep_logs=args.keep_logs, progress=not args.json,
+                         small=args.small)
+    png = plot(result, args.out / "surveys.png")
+    if args.json:
+        print(json.dumps(to_jsonable({k: result[k] for k in ("seed", "command", "overall", "by_factor")})))
+    else:
+        print(text_table(result))
+        print(f"written: {args.out / 'surveys.json'}, {png}")
+    return 0

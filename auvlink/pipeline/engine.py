@@ -116,6 +116,7 @@ class Engine:
         self._classifier: Classifier | None = None
         self._on_detection, self._clock = on_detection, clock
         self._buf: list[Event] = []
+        self._det_index: dict[int, int] = {}  # detection id -> its place in self.detections
         self._frames: list[tuple[int, SonarPayload]] = []
         self._ring: deque[tuple[float, npt.NDArray[np.uint8]]] = deque(maxlen=ring_frames)
         self._strip_max = strip_frames
@@ -248,9 +249,9 @@ class Engine:
         if self._classify:
             self.load_classifier()
             assert self._classifier is not None
-            depths = self.rec.seabed_depth_at([o.centroid[:2] for o in objects]) if self.rec is not None else None
+            # recon fitted the seabed once for the poll that made these objects, and each carries its depth
             labels = self._classifier.classify_many([o.points for o in objects],
-                                                    None if depths is None else [float(d) for d in depths])
+                                                    [float(o.seabed_depth) for o in objects])
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
         for o, (c, s) in zip(objects, labels, strict=True):
@@ -260,9 +261,17 @@ class Engine:
                             position_ned=(float(centre[0]), float(centre[1]), float(centre[2])),
                             size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
                             n_points=int(o.n_points), t_first=epoch + float(o.t_first),
-                            t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points)
+                            t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points,
+                            passes=tuple((epoch + a, epoch + b) for a, b in getattr(o, "passes", ())),
+                            seabed_depth=float(o.seabed_depth) if np.isfinite(o.seabed_depth) else None)
             self._locate(det, shift)
-            self.detections.append(det)
+            k = self._det_index.get(det.id)
+            if k is None:  # a new object
+                self._det_index[det.id] = len(self.detections)
+                self.detections.append(det)
+            else:  # a later pass fused into it (recon.fusion): the update replaces it, same id
+                self.detections[k] = det
+                self.counts["updates"] = self.counts.get("updates", 0) + 1
             self._pick_strip(float(o.t_first))
             if self._on_detection is not None:
                 self._on_detection(det)
@@ -305,7 +314,8 @@ class Engine:
         rec = self.rec
         return {**self.counts, "nav_samples": dict(self.nav.samples), "nav_late_samples": self.nav.late,
                 "frames_with_points": rec.frames_with_points if rec else 0, "points": rec.points_total if rec else 0,
-                "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections)}
+                "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections),
+                "rejected_not_objects": dict(getattr(rec, "rejected", {})) if rec else {}}
 
     def track(self, step: int = 5) -> np.ndarray:
         """Vehicle positions in W (corrected for drift once the mission is finished)."""

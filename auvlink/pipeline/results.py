@@ -36,12 +36,16 @@ class Detection:
     latitude: float | None = None  # WGS84 deg, when georeferenced
     longitude: float | None = None
     drift_correction_ne: tuple[float, float] = (0.0, 0.0)  # m, applied at the end (closure error share)
+    passes: tuple[tuple[float, float], ...] = ()  # time spans (s since the epoch) of the passes that saw it
+    seabed_depth: float | None = None  # m, NED: the seabed under it (recon's model of the poll)
 
     def to_json(self, cloud: str) -> dict[str, Any]:
         out = {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
                "position_ned": [round(v, 4) for v in self.position_ned],
                "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
-               "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame}
+               "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame,
+               "passes": [list(p) for p in self.passes],
+               "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, 4)}
         if self.latitude is not None and self.longitude is not None:
             out["lat"], out["lon"] = round(self.latitude, 9), round(self.longitude, 9)
             out["drift_correction_ne"] = [round(v, 4) for v in self.drift_correction_ne]
