@@ -4,12 +4,15 @@
 * :class:`MissionLogReader` - streaming time-ordered merge of channels, robust to truncation and damage;
   :class:`LossReport` says what was lost.
 * :class:`Replay`, :func:`replay_samples` - raw frames back through the live framers and codecs.
+* :class:`DecoderFactory` - for ``mcap``'s ``make_reader(f, decoder_factories=[DecoderFactory()])``:
+  ``iter_decoded_messages`` yields auvlink records for every raw channel.
 * :func:`log_info`, :func:`export_log`, :func:`import_can_log`, :func:`import_serial_capture`.
 
 The container and naming rules are in :mod:`logs_format.profile`.
 """
 
 from logs_format.chunks import ChannelInfo, LogMessage
+from logs_format.decoder import DecoderFactory
 from logs_format.export import ExportResult, export_log
 from logs_format.importers import ImportResult, import_can_log, import_serial_capture, is_can_log
 from logs_format.info import format_info, log_info
@@ -21,6 +24,7 @@ from logs_format.writer import MissionLogWriter
 
 __all__ = [
     "ChannelInfo",
+    "DecoderFactory",
     "ExportResult",
     "ImportResult",
     "LogError",

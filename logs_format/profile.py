@@ -3,9 +3,12 @@
 Container: MCAP (https://mcap.dev/spec), written and read with the ``mcap`` package.
 
 * One channel per device: topic = device name (``"dvl"``), message encoding = the wire format's
-  encoding (``"rdi.pd0"``); schema name = the same encoding, schema encoding empty (the bytes are
-  the vendor's own wire format, documented by the vendor). Channel metadata: ``format`` (the
-  auvlink format name, ``"pd0"``) and ``device``.
+  encoding (``"rdi.pd0"``); schema name ``auvlink.<encoding>`` (``"auvlink.rdi.pd0"``), schema
+  encoding = the message encoding, schema data a JSON descriptor naming the format, its spec (title
+  and URL) and the auvlink record type (:mod:`logs_format.specs`; the bytes are the vendor's own
+  wire format). Logs of earlier versions have an empty schema (name = the encoding, no data).
+  ``mcap`` readers decode these channels with :class:`logs_format.decoder.DecoderFactory`.
+  Channel metadata: ``format`` (the auvlink format name, ``"pd0"``) and ``device``.
 * Message = one raw wire frame exactly as received; ``log_time`` = host receive time (UTC ns),
   ``publish_time`` = sensor time when the writer knew it, else equal to ``log_time`` (MCAP usage);
   ``sequence`` counts the frames of the channel from 0.

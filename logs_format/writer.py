@@ -57,6 +57,7 @@ from logs_format.profile import (
     wire_channel,
 )
 from logs_format.selfcontained import repeat_definitions
+from logs_format.specs import schema_record
 
 if TYPE_CHECKING:
     from auvlink.config import VehicleConfig
@@ -120,7 +121,7 @@ class MissionLogWriter:
         repeat_definitions(self._mcap)  # every chunk names its channels: readable alone after damage
         self._lock = threading.Lock()
         self._channels: dict[str, ChannelStats] = {}
-        self._schemas: dict[tuple[str, str], int] = {}
+        self._schemas: dict[tuple[str, str, bytes], int] = {}
         self._chunk_t0: float | None = None  # monotonic time of the first message of the open chunk
         self._closed = False
         self._error: BaseException | None = None
@@ -151,7 +152,7 @@ class MissionLogWriter:
             raise LogError(f"log {self.path} failed earlier: {self._error}") from self._error
 
     def _schema(self, name: str, encoding: str, data: bytes) -> int:
-        key = (name, encoding)
+        key = (name, encoding, data)
         if key not in self._schemas:
             self._schemas[key] = self._mcap.register_schema(name=name, encoding=encoding, data=data)
         return self._schemas[key]
@@ -162,7 +163,7 @@ class MissionLogWriter:
         except (UnknownFormatError, ImportError):  # a format this install does not know: keep its name
             encoding = fmt
         topic, msg_encoding, meta = wire_channel(device, fmt, encoding)
-        schema_id = self._schema(encoding, "", b"")
+        schema_id = self._schema(*schema_record(fmt, encoding))
         cid = self._mcap.register_channel(topic=topic, message_encoding=msg_encoding,
                                           schema_id=schema_id, metadata=meta)
         stats = self._channels[device] = ChannelStats(cid, fmt)

@@ -96,6 +96,10 @@ class Reconstructor:
         self.points_total = 0
         self.seabed_removed = 0
         self._t_last = -np.inf
+        #: the first returns of the last :meth:`add_frames` call: (frame index in that call, beam,
+        #: row) arrays, before any front-slope carving (what a viewer marks on the frames)
+        self.last_returns: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]] = (
+            np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))
         if seabed_points is None and hasattr(poses, "seabed_points"):
             seabed_points = poses.seabed_points()
         if seabed_points is not None:
@@ -131,6 +135,7 @@ class Reconstructor:
         limits = onset_rows(g, onset, hc.margin_m)
         thr = frame_thresholds(imgs, int(limits.min(initial=g.n_bins)), hc)
         fi, bi, ri = first_returns(imgs, limits, thr, hc)
+        self.last_returns = (fi, bi, ri)
         tex = self.config.texture.enabled
         if self.config.seabed_every > 0 or tex:
             nth = max(1, self.config.seabed_every)

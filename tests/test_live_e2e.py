@@ -61,6 +61,14 @@ def test_live_finds_the_objects_in_time(live_run: tuple[Path, MissionResult]) ->
     assert lat["count"] >= 100 and lat["p99_ms"] <= 200.0 * load_factor(), lat
     for stage in ("navigation", "reconstruction", "clustering", "classification"):
         assert summary["latency"][stage]["p50_ms"] is not None
+    # live writes the viewer file too: every channel decodes with the schemas it carries
+    from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
+
+    with open(out / "results.mcap", "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        topics = [c.topic for _, c, _, _ in reader.iter_decoded_messages()]
+    assert topics.count("/objects/detections") == 2 and topics.count("/sonar/fan") >= 10 and "/tf" in topics
 
 
 def test_replaying_the_live_log_gives_the_live_detections(live_run: tuple[Path, MissionResult], tmp_path: Path) -> None:
@@ -73,6 +81,8 @@ def test_replaying_the_live_log_gives_the_live_detections(live_run: tuple[Path, 
     # sums with SIMD paths that depend on memory alignment, which differs between two processes states)
     assert [(d.id, d.class_name, d.n_points, d.t_first, d.t_last) for d in a] == \
         [(d.id, d.class_name, d.n_points, d.t_first, d.t_last) for d in b] and len(a) == 2
+    # the viewer's sonar frames: the same frames kept, the same highlight returns marked
+    assert [(f.t, f.returns) for f in live.fan_frames] == [(f.t, f.returns) for f in replay.fan_frames]
     for x, y in zip(a, b, strict=True):
         assert abs(x.score - y.score) < 1e-5
         assert np.allclose(x.position_ned, y.position_ned, rtol=0, atol=1e-9)

@@ -58,7 +58,8 @@ def test_round_trip_bit_exact(tmp_path: Path, compression: str) -> None:
         assert {c.compression for c in log.chunks} == {"" if compression == "none" else compression}
         assert set(log.channels) == {"gyro", "dvl"}
         assert log.channels["gyro"].message_encoding == "kvh.dsp1760"
-        assert log.channels["gyro"].schema_name == "kvh.dsp1760"
+        assert log.channels["gyro"].schema_name == "auvlink.kvh.dsp1760"
+        assert log.channels["gyro"].schema_encoding == "kvh.dsp1760"
         assert log.channels["gyro"].format == "dsp1760"
         assert log.duration_s == pytest.approx((frames[-1][2] - T0) * 1e-9)
     expect = sorted(frames, key=lambda f: f[2])

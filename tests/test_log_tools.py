@@ -171,7 +171,7 @@ def test_export_csv_and_fan_png(tmp_path: Path) -> None:
             img = rng.integers(0, 255, (32, 16), dtype=np.uint8)
             log("sonar", "test.fan", T0 + i * 100_000_000 + 1, fan_encode(img, 1.0, 9.0, 0.25))
     out = tmp_path / "export"
-    assert main(["log", "export", str(path), "--out", str(out)]) == 0
+    assert main(["log", "export", str(path), "--out", str(out), "--every", "1"]) == 0
     with open(out / "fog.csv") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 20

@@ -179,7 +179,7 @@ def test_export_with_force_replaces_its_files_and_keeps_the_others(tmp_path: Pat
     (out / "sonar" / "frame_999999.png").write_bytes(b"stale")
     (out / "gyro.csv").write_text("stale")
     (out / "notes.txt").write_text("mine")
-    proc = auvlink("log", "export", small_log, "--out", out, "--force", "--max-sonar", "2")
+    proc = auvlink("log", "export", small_log, "--out", out, "--force", "--max-sonar", "2", "--every", "1")
     assert proc.returncode == 0, proc.stderr
     assert (out / "notes.txt").read_text() == "mine"
     assert (out / "gyro.csv").read_text().startswith("t_host_s")

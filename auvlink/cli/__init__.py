@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "record": ("auvlink.cli.record", "record the ports of a config file into an MCAP mission log"),
     "log": ("auvlink.cli.log", "inspect, export and import mission logs"),
     "replay": ("auvlink.cli.replay", "replay a mission log through the live pipeline"),
+    "batch": ("auvlink.cli.batch", "replay many mission logs on a Dask cluster and build the site catalogue"),
     "sim": ("auvlink.cli.sim", "simulate a mission into a log or live on virtual ports"),
     "live": ("auvlink.cli.live", "run the onboard pipeline on the ports of a config file"),
     "train": ("auvlink.cli.train", "train the PointNet classifier on synthesized clouds"),

@@ -29,7 +29,7 @@ from auvlink.atomic import write_text
 from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import to_jsonable
 
-STAGES = ("decode", "log", "sim", "recon", "classify", "e2e", "stability", "survey")
+STAGES = ("decode", "log", "sim", "recon", "classify", "e2e", "batch", "stability", "survey")
 
 
 def benchmarks_dir() -> Path:

@@ -1,16 +1,19 @@
 """``auvlink demo``: the shipped scene -> simulated mission log -> replay -> report. No arguments needed.
 
 The output folder (default ``demo-out``) must be new or empty unless ``--force``; the log and the
-replay outputs are each written under a temporary name and renamed when whole.
+replay outputs are each written under a temporary name and renamed when whole. ``--json``: one JSON
+object on stdout at the end (as ``auvlink replay --json``); the progress lines go to stderr then.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.jsonutil import dumps
 from auvlink.sim.scene import load_default_scene, load_scene
 
 
@@ -19,6 +22,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", type=Path, default=None, help="scene TOML (default: the shipped scene)")
     p.add_argument("--seed", type=int, default=None, help="override the scene's seed")
     p.add_argument("--force", action="store_true", help="write into a non-empty output folder (replacing its files)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (counts, detections, outputs, timings) on stdout, nothing else")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -27,21 +32,27 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
     log = args.out / "mission.mcap"
     check_output_file(log, force=True, inputs=[args.scene], what="log")  # a leftover mission.mcap.partial
-    from auvlink.cli.replay import process, scores_line
+    from auvlink.cli.replay import json_result, process, scores_line
     from auvlink.sim.mission import simulate_to_log
+
+    say = sys.stderr if args.json else sys.stdout  # with --json, stdout carries the JSON object only
 
     scene = load_scene(args.scene) if args.scene else load_default_scene()
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    print(f"[1/2] simulating the mission -> {log}")
+    print(f"[1/2] simulating the mission -> {log}", file=say)
     simulate_to_log(scene, log, seed=args.seed, progress=True)
     t1 = time.perf_counter()
-    print(f"      {t1 - t0:.1f} s")
-    print(f"[2/2] replaying through the pipeline -> {args.out}")
+    print(f"      {t1 - t0:.1f} s", file=say)
+    print(f"[2/2] replaying through the pipeline -> {args.out}", file=say)
     summary = process(log, args.out, speed=None, model=None, classify=True, report=True, progress=True)
-    print(f"      {time.perf_counter() - t1:.1f} s; {summary['detections']} objects detected")
+    print(f"      {time.perf_counter() - t1:.1f} s; {summary['detections']} objects detected", file=say)
     line = scores_line(summary)
     if line:
-        print(f"      {line}")
-    print(f"report: {(args.out / 'report.html').resolve()}")
+        print(f"      {line}", file=say)
+    print(f"report: {(args.out / 'report.html').resolve()}", file=say)
+    if args.json:
+        result = json_result("demo", log, args.out, summary)
+        result["timings"] = {**(result["timings"] or {}), "simulation_s": t1 - t0}
+        sys.stdout.write(dumps(result) + "\n")
     return 0

@@ -40,6 +40,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backoff-max", type=float, default=5.0,
                    help="longest wait between two attempts to reopen a lost port, s (default 5)")
     p.add_argument("--quiet", action="store_true", help="no line per detection")
+    p.add_argument("--ply-frame", choices=("ned", "zup"), default="ned",
+                   help="frame of the PLY files: ned (world frame, default) or zup (x east, y north, z up)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -76,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
 
     live = LiveRun(args.config, args.out, log_path=args.log, duration=args.duration, stop=stop,
                    classify=not args.no_classify, model=args.model, sonar_queue=args.sonar_queue,
-                   on_detection=show, backoff_max=args.backoff_max, on_ready=announce)
+                   on_detection=show, backoff_max=args.backoff_max, on_ready=announce, ply_frame=args.ply_frame)
     previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         result = live.run()

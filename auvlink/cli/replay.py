@@ -2,20 +2,26 @@
 
 The raw frames go back through the same framers, codecs and drivers as live operation; then
 navigation, reconstruction, clustering and classification. DIR receives ``detections.jsonl``,
-``cloud.ply``, ``objects/*.ply``, ``summary.json`` and ``report.html``. DIR is checked before any work
-(new or empty unless ``--force``, writable) and filled in a temporary folder renamed when whole
-(:func:`auvlink.atomic.atomic_dir`).
+``cloud.ply``, ``objects/*.ply`` (per point object id and time; ``--ply-frame zup`` for viewers that
+want z up), ``results.mcap`` (Foxglove schemas: docs/VIEWER.md), ``summary.json`` and ``report.html``.
+DIR is checked before any work (new or empty unless ``--force``, writable) and filled in a temporary
+folder renamed when whole (:func:`auvlink.atomic.atomic_dir`).
+``--json``: one JSON object on stdout at the end (:func:`json_result`), nothing else there (progress and
+warnings go to stderr).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+from typing import Any
 
 from auvlink.atomic import atomic_dir, check_output_dir
 from auvlink.config import load_config
 from auvlink.errors import AuvlinkError
+from auvlink.jsonutil import dumps
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -29,12 +35,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-classify", action="store_true", help="stop after clustering")
     p.add_argument("--no-report", action="store_true", help="skip report.html")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (counts, detections, outputs, timings) on stdout, nothing else")
     p.add_argument("--config", type=Path, default=None,
                    help="vehicle configuration (TOML) to use instead of the one the log stores")
+    p.add_argument("--ply-frame", choices=("ned", "zup"), default="ned",
+                   help="frame of the PLY files: ned (world frame, default) or zup (x east, y north, z up)")
 
 
 def process(log: Path, out: Path, *, speed: float | None, model: Path | None, classify: bool,
-            report: bool, progress: bool, config: Path | None = None) -> dict[str, object]:
+            report: bool, progress: bool, config: Path | None = None, ply_frame: str = "ned") -> dict[str, object]:
     # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
@@ -44,7 +54,7 @@ def process(log: Path, out: Path, *, speed: float | None, model: Path | None, cl
     vehicle = load_config(config) if config is not None else None
     result = run_log(log, speed=speed, model=model, classify=classify, progress=progress, config=vehicle)
     with atomic_dir(out) as tmp:
-        summary = write_outputs(result, tmp)
+        summary = write_outputs(result, tmp, ply_frame=ply_frame)
         if report:
             write_report(result, summary, tmp)
     if report:
@@ -83,6 +93,29 @@ def scores_line(summary: dict[str, object]) -> str | None:
             f"classification P/R {s['classification_precision']:.2f}/{s['classification_recall']:.2f}")
 
 
+def json_result(command: str, log: Path, out: Path, summary: dict[str, Any]) -> dict[str, Any]:
+    """The ``--json`` object of ``replay`` and ``demo``: counts (detections per class), one short line
+    per detection (id, class, score, position NED m, points), the scores against the truth (when the
+    log has it), the paths of the files in ``out`` by name and the timings (s)."""
+    dets = [json.loads(line) for line in (out / "detections.jsonl").read_text().splitlines() if line.strip()]
+    counts: dict[str, int] = {}
+    for d in dets:
+        counts[d["class"]] = counts.get(d["class"], 0) + 1
+    scores, recon = summary.get("scores"), summary.get("recon")
+    outputs = {p.name: str(p) for p in sorted(out.iterdir()) if not p.name.startswith(".")}  # all DIR holds
+    return {
+        "command": command, "log": str(log), "out": str(out),
+        "counts": {"detections": len(dets), "by_class": dict(sorted(counts.items())),
+                   "sonar_frames": recon.get("frames_processed") if isinstance(recon, dict) else None},
+        "detections": [{k: d[k] for k in ("id", "class", "score", "position_ned", "size", "n_points")} for d in dets],
+        "scores": {k: v for k, v in scores.items() if not isinstance(v, list | dict)} if isinstance(scores, dict)
+        else None,
+        "outputs": outputs,
+        "timings": summary.get("timings"),
+        "log_loss": summary.get("log_loss") or {"state": "complete"},  # the log's loss report (JSON)
+    }
+
+
 def loss_line(log: Path, summary: dict[str, object]) -> str | None:
     """One line when the log was damaged or cut off (what was lost, in seconds and messages), else None."""
     loss = summary.get("log_loss")
@@ -95,10 +128,14 @@ def run(args: argparse.Namespace) -> int:
     check_inputs(args.log, args.speed)
     check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
     summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
-                      report=not args.no_report, progress=not args.quiet, config=args.config)
+                      report=not args.no_report, progress=not args.quiet, config=args.config,
+                      ply_frame=args.ply_frame)
     line = loss_line(args.log, summary)
     if line:
         print(line, file=sys.stderr)
+    if args.json:
+        sys.stdout.write(dumps(json_result("replay", args.log, args.out, summary)) + "\n")
+        return 0
     print(f"{summary['detections']} objects -> {args.out / 'detections.jsonl'}")
     line = engine_line(summary)
     if line and not args.quiet:

@@ -39,7 +39,7 @@ from auvlink.geodesy import Datum
 from auvlink.pipeline.georef import Georef
 from auvlink.pipeline.latency import StageTimes
 from auvlink.pipeline.nav_inputs import Event, NavAdaptor, SonarPayload
-from auvlink.pipeline.results import Detection, StripFrame
+from auvlink.pipeline.results import Detection, Poses, StripFrame
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from auvlink.records import Sample
 from recon.cluster import ClusterConfig, DetectedObject, dbscan_labels
@@ -51,6 +51,11 @@ from recon.sonar_geometry import SonarGeometry
 
 if TYPE_CHECKING:
     from classify.infer import Classifier
+
+#: ``on_frames(geometry, times, images, returns)``: frames just reconstructed (mission times s, (F, bins,
+#: beams) uint8) and their highlight returns ((frame, beam, row) arrays, :attr:`Reconstructor.last_returns`)
+FramesObserver = Callable[[SonarGeometry, npt.NDArray[np.float64], npt.NDArray[np.uint8],
+                           tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]], None]
 
 
 def default_recon_config() -> ReconConfig:
@@ -96,7 +101,8 @@ class Engine:
     def __init__(self, setup: MissionSetup, config: EngineConfig | None = None, *, t0_ns: int | None = None,
                  recon_config: ReconConfig | None = None, classify: bool = True, model: Path | None = None,
                  on_detection: Callable[[Detection], None] | None = None,
-                 clock: Callable[[], int] | None = None, strip_frames: int = 6, ring_frames: int = 200) -> None:
+                 clock: Callable[[], int] | None = None, strip_frames: int = 6, ring_frames: int = 200,
+                 on_frames: FramesObserver | None = None) -> None:
         self.setup = setup
         self.config = config or EngineConfig()
         self.t0_ns = t0_ns
@@ -115,6 +121,7 @@ class Engine:
         self._classify, self._model = classify, model
         self._classifier: Classifier | None = None
         self._on_detection, self._clock = on_detection, clock
+        self._on_frames = on_frames
         self._buf: list[Event] = []
         self._det_index: dict[int, int] = {}  # detection id -> its place in self.detections
         self._frames: list[tuple[int, SonarPayload]] = []
@@ -220,7 +227,10 @@ class Engine:
             return 0
         sel, ts = sel[good], times[sel[good]]
         self.rec.add_seabed_points(self.nav.take_seabed_points(until=float(ts.max())))
-        self.rec.add_frames(ts, np.stack([imgs[k] for k in good]))
+        stack = np.stack([imgs[k] for k in good])
+        self.rec.add_frames(ts, stack)
+        if self._on_frames is not None:
+            self._on_frames(g, ts, stack, self.rec.last_returns)
         dt = time.perf_counter() - t_start
         self.times.add("reconstruction", dt / sel.size, sel.size)
         self.counts["frames_processed"] += int(sel.size)
@@ -262,6 +272,7 @@ class Engine:
                             size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
                             n_points=int(o.n_points), t_first=epoch + float(o.t_first),
                             t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points,
+                            times=epoch + np.asarray(o.times, dtype=np.float64),
                             passes=tuple((epoch + a, epoch + b) for a, b in getattr(o, "passes", ())),
                             seabed_depth=float(o.seabed_depth) if np.isfinite(o.seabed_depth) else None)
             self._locate(det, shift)
@@ -325,6 +336,18 @@ class Engine:
     def track_table(self, step: int = 5) -> dict[str, np.ndarray]:
         """The columns of ``track.csv`` (:meth:`auvlink.pipeline.georef.Georef.track_table`)."""
         return self.georef.track_table(self.nav, (self.t0_ns or 0) * 1e-9, self._finished, step)
+
+    def poses(self, rate_hz: float = 10.0) -> Poses:
+        """The navigation solution in W at most ``rate_hz`` (the grid times the navigator answers for;
+        with the GNSS anchor, and the drift correction once the mission is finished, as :meth:`track`)."""
+        t, _ = self.nav.positions(1)
+        if t.size:
+            t = t[np.r_[True, np.diff(np.floor(t * rate_hz)) > 0]]
+            t = t[self.nav.covered(t)]
+        if not t.size:
+            return Poses.empty()
+        pos, rot = self.nav.pose_at(t)
+        return Poses(t, pos + self.georef.shift(t, corrected=self._finished), rot.as_quat())
 
     def highlight_points(self) -> np.ndarray:
         """Every highlight-extension point in W (with the anchor; the drift correction is per detection)."""

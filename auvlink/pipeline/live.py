@@ -31,8 +31,9 @@ from auvlink.config import VehicleConfig, load_config
 from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
+from auvlink.pipeline.fan_frames import FanRecorder
 from auvlink.pipeline.nav_inputs import SONAR_FORMATS
-from auvlink.pipeline.outputs import DetectionStream, write_outputs
+from auvlink.pipeline.outputs import DetectionStream, check_ply_frame, write_outputs
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
 from auvlink.pipeline.process import LIVE_META, result_of
 from auvlink.pipeline.results import Detection, MissionResult
@@ -49,7 +50,8 @@ class LiveRun:
                  model: Path | None = None, sonar_queue: int = 10, engine_config: EngineConfig | None = None,
                  compression: str = "zstd", on_detection: Callable[[Detection], None] | None = None,
                  ready: threading.Event | None = None,
-                 backoff_max: float = 5.0, on_ready: Callable[[], None] | None = None) -> None:
+                 backoff_max: float = 5.0, on_ready: Callable[[], None] | None = None,
+                 ply_frame: str = "ned") -> None:
         self.config = config if isinstance(config, VehicleConfig) else load_config(config)
         self.out_dir = Path(out_dir)
         self.log_path = Path(log_path) if log_path is not None else self.out_dir / "mission.mcap"
@@ -60,6 +62,7 @@ class LiveRun:
         self.classify, self.model, self.compression = classify, model, compression
         self.backoff_max = backoff_max
         self.on_ready = on_ready
+        self.ply_frame = check_ply_frame(ply_frame)
         self.sonar_q: queue.Queue[Sample] = queue.Queue(maxsize=sonar_queue)
         self.nav_q: queue.Queue[Sample] = queue.Queue(maxsize=100_000)
         self.drops: dict[str, int] = {}
@@ -116,7 +119,7 @@ class LiveRun:
         except OSError as exc:
             raise AuvlinkError(f"cannot create the output folder {self.out_dir}: {exc.strerror or exc}") from exc
         setup = MissionSetup.from_config(self.config)
-        stream = DetectionStream(self.out_dir)
+        stream = DetectionStream(self.out_dir, self.ply_frame)
 
         def on_detection(det: Detection) -> None:
             stream(det)
@@ -124,8 +127,9 @@ class LiveRun:
                 self._user_on_detection(det)
 
         t0_ns = now_ns()
+        fans = FanRecorder()
         engine = Engine(setup, self.engine_config, t0_ns=t0_ns, classify=self.classify, model=self.model,
-                        on_detection=on_detection, clock=now_ns)
+                        on_detection=on_detection, clock=now_ns, on_frames=fans)
         log = MissionLogWriter(self.log_path, compression=self.compression)  # LogError: one clear line
         self._log = log
         try:
@@ -167,8 +171,8 @@ class LiveRun:
                    "classification_s": engine.times.total("classification"),
                    "total_s": time.perf_counter() - t_start}
         result = result_of(engine, self.log_path, timings, devices, self.fatal, mode="live", drops=self.drops,
-                           events=self.events)
-        self.summary = write_outputs(result, self.out_dir, keep_going=True)
+                           events=self.events, fan_frames=fans.frames)
+        self.summary = write_outputs(result, self.out_dir, keep_going=True, ply_frame=self.ply_frame)
         unwritten = self.summary.get("unwritten")
         if unwritten or stream.error is not None:
             what = ", ".join(unwritten) if unwritten else f"detections as they came ({stream.error})"

@@ -19,8 +19,9 @@ from typing import Any
 
 from auvlink.config import VehicleConfig
 from auvlink.pipeline.engine import Engine, EngineConfig
+from auvlink.pipeline.fan_frames import FanRecorder
 from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
-from auvlink.pipeline.results import Detection, MissionResult
+from auvlink.pipeline.results import Detection, FanFrame, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.progress import progress_bar
 from logs_format import MissionLogReader, Replay
@@ -63,8 +64,9 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
         print(f"auvlink: warning: {log}: {setup.warning}", file=sys.stderr)
     live_cfg, t0_ns = live_settings(meta)
     cfg = engine_config or (EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK))
+    fans = FanRecorder()
     engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config, classify=classify, model=model,
-                    on_detection=on_detection)
+                    on_detection=on_detection, on_frames=fans)
     t_warm = time.perf_counter()
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
@@ -108,7 +110,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
                "clustering_s": engine.times.total("clustering"),
                "classification_s": engine.times.total("classification"),
                "total_s": time.perf_counter() - t_start}
-    return result_of(engine, log, timings, stats, loss, mode="replay", drops=skipped)
+    return result_of(engine, log, timings, stats, loss, mode="replay", drops=skipped, fan_frames=fans.frames)
 
 
 def dropped_live(reader: MissionLogReader) -> set[tuple[str, int] | tuple[str, int, int]]:
@@ -137,12 +139,13 @@ ADVANCE_NS = 4_000_000_000  # replay hands samples to the engine in 4 s blocks (
 
 def result_of(engine: Engine, log: Path | None, timings: dict[str, float], stats: dict[str, Any],
               loss: dict[str, Any] | str,
-              mode: str, drops: dict[str, int] | None = None, events: list[dict[str, Any]] | None = None
-              ) -> MissionResult:
+              mode: str, drops: dict[str, int] | None = None, events: list[dict[str, Any]] | None = None,
+              fan_frames: list[FanFrame] | None = None) -> MissionResult:
     return MissionResult(log=log, setup=engine.setup, detections=engine.detections, track=engine.track(),
                          t0=(engine.t0_ns or 0) * 1e-9, strip=engine.strip, geometry=engine.geometry,
                          timings=timings, latency=engine.times.summary(), replay_stats=stats,
                          recon_stats=engine.recon_stats(), loss=loss, highlight_points=engine.highlight_points(),
                          drops=dict(drops or {}), events=list(events or []), mode=mode,
                          engine=engine.config.to_dict(), georef=engine.georef.summary(),
-                         track_info=engine.track_table())
+                         track_info=engine.track_table(), t0_ns=engine.t0_ns or 0, poses=engine.poses(),
+                         fan_frames=list(fan_frames or []))

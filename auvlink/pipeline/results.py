@@ -1,5 +1,6 @@
 """What a pipeline run produces: :class:`Detection` (one classified object), :class:`StripFrame` (a sonar
-frame kept for the report) and :class:`MissionResult` (everything of a live or replay run).
+frame kept for the report), :class:`Poses` (the navigation solution), :class:`FanFrame` (a sonar frame
+rendered for ``results.mcap``) and :class:`MissionResult` (everything of a live or replay run).
 
 Plain data, imported by the engine, the runners (:mod:`auvlink.pipeline.process`,
 :mod:`auvlink.pipeline.live`) and the outputs alike, so none of them imports another for its types.
@@ -15,6 +16,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from auvlink.pipeline.setup import MissionSetup
+from recon.shape import OrientedBox, oriented_box
 from recon.sonar_geometry import SonarGeometry
 
 
@@ -31,6 +33,7 @@ class Detection:
     t_first: float
     t_last: float
     points: np.ndarray
+    times: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per point, s since the epoch
     #: where position_ned is: "site" (the datum, anchored to GNSS) or "first_navigation_sample"
     frame: str = "first_navigation_sample"
     latitude: float | None = None  # WGS84 deg, when georeferenced
@@ -39,10 +42,20 @@ class Detection:
     passes: tuple[tuple[float, float], ...] = ()  # time spans (s since the epoch) of the passes that saw it
     seabed_depth: float | None = None  # m, NED: the seabed under it (recon's model of the poll)
 
+    @property
+    def box(self) -> OrientedBox:
+        """The oriented box of the points (principal horizontal axis; :mod:`recon.shape`)."""
+        return oriented_box(self.points)
+
     def to_json(self, cloud: str) -> dict[str, Any]:
+        """A line of ``detections.jsonl``: ``yaw_deg`` is the heading of the principal horizontal axis
+        (deg clockwise from north, [0, 180)), ``length_m`` / ``width_m`` the spans along / across it."""
+        box = self.box
         out = {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
                "position_ned": [round(v, 4) for v in self.position_ned],
                "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
+               "yaw_deg": round(box.yaw_deg, 2), "length_m": round(box.length_m, 4),
+               "width_m": round(box.width_m, 4),
                "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame,
                "passes": [list(p) for p in self.passes],
                "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, 4)}
@@ -61,6 +74,29 @@ class StripFrame:
     position: np.ndarray  # (1, 3)
     rotation: Rotation  # (1) R_WB
     altitude: np.ndarray  # (1,)
+
+
+@dataclass(frozen=True)
+class Poses:
+    """The navigation solution sampled for viewers: mission time (s), positions W (NED, m), R_WB as
+    quaternions (x, y, z, w; scipy order)."""
+
+    t: np.ndarray  # (n,)
+    position: np.ndarray  # (n, 3)
+    quat: np.ndarray  # (n, 4)
+
+    @classmethod
+    def empty(cls) -> Poses:
+        return cls(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 4)))
+
+
+@dataclass(frozen=True)
+class FanFrame:
+    """A sonar frame rendered as a fan picture (PNG), the highlight returns marked (mission time s)."""
+
+    t: float
+    png: bytes
+    returns: int  # highlight returns marked
 
 
 @dataclass
@@ -84,6 +120,9 @@ class MissionResult:
     events: list[dict[str, Any]] = field(default_factory=list)
     mode: str = "replay"
     engine: dict[str, Any] = field(default_factory=dict)
+    t0_ns: int = 0  # ns since the epoch of mission time 0 (``t0`` exactly)
+    poses: Poses = field(default_factory=Poses.empty)
+    fan_frames: list[FanFrame] = field(default_factory=list)
     georef: dict[str, Any] = field(default_factory=dict)  # datum, anchor, closure, fix counts (Georef.summary)
     track_info: dict[str, np.ndarray] = field(default_factory=dict)  # the columns of track.csv
 

@@ -1,0 +1,104 @@
+"""The README's Python API examples run as written, on a small simulated mission; the facade is lazy.
+
+Every ```python block of the README's "Python API" section is executed in order, in one namespace,
+in a folder holding ``mission.mcap`` (the small mission) and ``dvl.pd0`` (its DVL frames, a raw
+capture); what they print is checked against the mission.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from small_mission import TRUTH, simulate_small
+
+from logs_format import MissionLogReader
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def api_blocks() -> list[str]:
+    text = README.read_text()
+    section = re.search(r"^## Python API\n(.*?)(?=^## )", text, re.S | re.M)
+    assert section, "README has no '## Python API' section"
+    blocks = re.findall(r"^```python\n(.*?)^```", section.group(1), re.S | re.M)
+    assert len(blocks) >= 3, "the API section should show read, open_log and replay"
+    return blocks
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("api")
+    log = simulate_small(root / "mission.mcap")
+    with MissionLogReader(log) as r:  # the DVL channel's raw frames: a capture as `auvlink record` got it
+        (root / "dvl.pd0").write_bytes(b"".join(m.data for m in r.messages(channels=["dvl"])))
+    return root
+
+
+def test_readme_api_examples_run(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(folder)
+    namespace: dict[str, object] = {"__name__": "readme"}
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        for block in api_blocks():
+            exec(compile(block, str(README), "exec"), namespace)  # the README's examples, verbatim
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "134 ensembles, 0 undecodable", lines[:3]  # 26.7 s of DVL pings at 5 Hz
+    assert lines[1].startswith("['can', 'dvl', 'gyro', 'pressure', 'sonar'") and lines[2] == "complete"
+    assert lines[3] == "['ground_truth', 'software', 'vehicle_config']"
+    assert re.fullmatch(r"\d{19} didson \(\d+, \d+\)", lines[4]), lines[4]
+    dets = lines[5:-1]
+    assert {d.split()[1] for d in dets} == set(TRUTH) and lines[-1].startswith("2 objects;"), lines
+
+
+def test_replay_stops_when_the_consumer_breaks(folder: Path) -> None:
+    import threading
+
+    import auvlink
+    from auvlink.errors import AuvlinkError
+
+    run = auvlink.replay(folder / "mission.mcap", classify=False)
+    first = next(run)
+    run.close()
+    assert first.class_name == "unknown"
+    assert not any(t.name == "auvlink-replay" for t in threading.enumerate())
+    with pytest.raises(AuvlinkError, match="stopped before its end"):
+        run.result  # noqa: B018
+
+
+def test_read_needs_a_format_for_a_raw_capture(folder: Path) -> None:
+    import auvlink
+    from auvlink.errors import AuvlinkError
+
+    with pytest.raises(AuvlinkError, match=r"read\(path, format='pd0'\)"):
+        auvlink.read(folder / "dvl.pd0")
+    with pytest.raises(AuvlinkError, match="no such file"):
+        auvlink.read(folder / "nope.pd0", "pd0")
+    assert sum(1 for _ in auvlink.read(folder / "mission.mcap")) > 4000  # a log needs no format
+
+
+def test_import_auvlink_stays_light() -> None:
+    code = ("import sys, auvlink; heavy = [m for m in ('auvlink.api', 'auvlink.pipeline', 'scipy', 'torch') "
+            "if m in sys.modules]; print(heavy); auvlink.open_log; print('auvlink.api' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split("\n")[:2] == ["[]", "True"], done.stdout
+
+
+def test_a_run_nobody_holds_stops(folder: Path) -> None:
+    import gc
+    import threading
+
+    import auvlink
+
+    run = auvlink.replay(folder / "mission.mcap", classify=False, buffer=1)
+    next(run)
+    thread = next(t for t in threading.enumerate() if t.name == "auvlink-replay")
+    del run
+    gc.collect()
+    thread.join(timeout=30)
+    assert not thread.is_alive()
