@@ -15,7 +15,7 @@ from auvlink.sim.emit import block_events, device_formats
 from auvlink.sim.mission import Run, prepare
 from auvlink.sim.noise import DvlNoise, NoiseConfig
 from auvlink.sim.scene import loads_scene
-from auvlink.sim.sensors import measure
+from auvlink.sim.sensors import mean_body_rate, measure
 from auvlink.sim.settings import SimSettings, loads_settings
 from auvlink.sim.sonar_render import SonarRenderer
 from recon.frames import bottom_track_to_vehicle, rdi_ship_to_body
@@ -112,12 +112,24 @@ def test_gyro_rates_integrate_to_the_heading_change() -> None:
     run = _run(FLAT_LEVEL, noise=False)
     g = run.measurements.gyro
     pose = run.trajectory.true_pose(g.t)
-    np.testing.assert_allclose(g.rate, pose.angular_rate_body, atol=1e-12)
-    # level flight: heading rate = r; trapezoid over the whole mission (a 180 deg turn)
-    heading = np.concatenate([[0.0], np.cumsum(0.5 * (g.rate[1:, 2] + g.rate[:-1, 2]) * np.diff(g.t))])
+    # each sample is the mean rate over (t_k - dt, t_k], as a FOG integrates it: away from the turn's
+    # rate steps it is the rate at the interval's middle (to second order)
+    dt = float(np.diff(g.t)[0])
+    mid = run.trajectory.true_pose(g.t - 0.5 * dt).angular_rate_body
+    smooth = np.abs(run.trajectory.true_pose(g.t - dt).angular_rate_body - pose.angular_rate_body).max(axis=1) < 1e-3
+    assert (~smooth).sum() == 2  # the two intervals where the turn starts and ends
+    np.testing.assert_allclose(g.rate[smooth], mid[smooth], atol=1e-6)
+    # level flight: heading rate = r; the samples' sum is the heading change at every sample, exactly,
+    # across the 180 deg turn between the two lines (where the rate steps)
+    heading = np.concatenate([[0.0], np.cumsum(g.rate[1:, 2] * np.diff(g.t))])
     change = np.unwrap(pose.yaw) - pose.yaw[0]
-    assert abs(change[-1]) > 3.0  # the turn between the two lines
-    assert abs(heading[-1] - change[-1]) < 0.01
+    assert abs(change[-1]) > 3.0
+    assert np.abs(heading - change).max() < 1e-9
+    # point samples of the rate (what the simulator emitted before) miss up to rate x dt at each step
+    point = np.concatenate([[0.0], np.cumsum(0.5 * (pose.angular_rate_body[1:, 2] + pose.angular_rate_body[:-1, 2])
+                                             * np.diff(g.t))])
+    steps = np.flatnonzero(np.abs(np.diff(pose.angular_rate_body[:, 2])) > 0.1)
+    assert steps.size == 2 and abs(point[-1] - change[-1]) > 1e-5
     # accelerometers at rest in z: -g along body z when level
     assert np.all(np.abs(g.accel[:, 2] + 9.80665) < 1e-6)
 
@@ -125,7 +137,7 @@ def test_gyro_rates_integrate_to_the_heading_change() -> None:
 def test_gyro_noise_follows_the_datasheet_figures() -> None:
     run = _run(duration=600.0)
     g = run.measurements.gyro
-    err = g.rate - run.trajectory.true_pose(g.t).angular_rate_body
+    err = g.rate - mean_body_rate(run.trajectory, g.t, 1.0 / run.settings.sensors.gyro_hz)
     arw = math.radians(0.012) / 60.0 * math.sqrt(run.settings.sensors.gyro_hz)
     white = np.diff(err, axis=0) / math.sqrt(2.0)  # the slow bias cancels in differences
     assert white.std() == pytest.approx(arw, rel=0.05)

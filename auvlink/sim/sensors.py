@@ -6,7 +6,13 @@ encoding of these values is :mod:`auvlink.sim.emit`. Models:
 
 - **DVL** (PD0, ``dvl_hz``): :mod:`auvlink.sim.dvl`.
 - **Gyro** (KVH DSP-1760, ``gyro_hz``, rate mode, mounted aligned with the body): body angular
-  rates (p, q, r) from the trajectory's analytic Euler-rate kinematics, plus white rate noise of
+  rates (p, q, r), each sample the *mean* rate over its interval ``(t_k - 1/gyro_hz, t_k]`` (a FOG
+  integrates the rate and reports the angle increment over the sample, divided by the period in rate
+  mode): the exact differences of the true Euler angles over the interval, divided by its length,
+  turned into body rates with the attitude at the interval's middle (:func:`mean_body_rate`). A point
+  sample of the rate would be wrong where the rate steps (the start and end of a turn): the sum of the
+  samples would miss up to rate x period of heading at each step (0.25 deg per turn on the default
+  survey), which dead reckoning cannot tell from a true heading change. Plus white rate noise of
   the angle random walk N (sigma = N sqrt(rate)) and a first-order Gauss-Markov bias per axis
   (steady-state sigma = the bias instability, correlation time ``bias_correlation_s``, drawn at its
   steady state at t = 0). Accelerometers: specific force ``f_B = R_BW (a_W - g_W)``, g = 9.80665 m/s^2
@@ -36,7 +42,7 @@ from auvlink.sim.noise import NoiseConfig, stream_rng
 from auvlink.sim.scene import Scene
 from auvlink.sim.seabed import SeabedSurface
 from auvlink.sim.settings import SensorSettings, SimSettings
-from auvlink.sim.trajectory import LawnmowerTrajectory, TruePose
+from auvlink.sim.trajectory import LawnmowerTrajectory, TruePose, euler_rates_to_body
 
 F64 = NDArray[np.float64]
 
@@ -116,12 +122,24 @@ def _white(seed: int, sensor: str, quantity: str, shape: tuple[int, ...], sigma:
     return np.asarray(stream_rng(seed, sensor, quantity).normal(0.0, sigma, shape))
 
 
+def mean_body_rate(traj: LawnmowerTrajectory, t: F64, period: float, pose: TruePose | None = None) -> F64:
+    """Body rates (n, 3) rad/s averaged over ``(t - period, t]``: the true Euler angles' differences over
+    the interval / ``period`` (exact however the rate steps inside it), through the ZYX kinematics with
+    the roll and pitch at the interval's middle (error second order in ``period``)."""
+    end = traj.true_pose(t) if pose is None else pose
+    start, mid = traj.true_pose(t - period), traj.true_pose(t - 0.5 * period)
+    yaw_d = np.angle(np.exp(1j * (end.yaw - start.yaw))) / period
+    return euler_rates_to_body(mid.roll, mid.pitch, (end.roll - start.roll) / period,
+                               (end.pitch - start.pitch) / period, yaw_d)
+
+
 def simulate_gyro(traj: LawnmowerTrajectory, t: F64, settings: SimSettings, seed: int,
                   pose: TruePose | None = None) -> GyroSeries:
     noise, rate_hz = settings.noise.gyro, settings.sensors.gyro_hz
     pose = traj.true_pose(t) if pose is None else pose
     n = t.shape[0]
-    rate = pose.angular_rate_body + _white(seed, "gyro", "arw", (n, 3), noise.arw * math.sqrt(rate_hz))
+    rate = mean_body_rate(traj, t, 1.0 / rate_hz, pose) if n else np.zeros((0, 3))
+    rate = rate + _white(seed, "gyro", "arw", (n, 3), noise.arw * math.sqrt(rate_hz))
     if noise.bias_sigma > 0.0 and n:
         phi = math.exp(-1.0 / (rate_hz * noise.bias_correlation_s))
         drive = stream_rng(seed, "gyro", "bias").normal(0.0, 1.0, (n, 3))

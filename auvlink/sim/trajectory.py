@@ -173,13 +173,7 @@ class LawnmowerTrajectory:
         roll, pitch = osc[0], gamma + osc[1]
         yaw = np.angle(np.exp(1j * (yaw_track + osc[2])))
         roll_d, pitch_d, yaw_d = osc_d[0], gamma_d + osc_d[1], yaw_track_d + osc_d[2]
-        # ZYX Euler rates -> body rates
-        sphi, cphi, sth, cth = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
-        rates = np.stack([
-            roll_d - yaw_d * sth,
-            pitch_d * cphi + yaw_d * cth * sphi,
-            -pitch_d * sphi + yaw_d * cth * cphi,
-        ], axis=1)
+        rates = euler_rates_to_body(roll, pitch, roll_d, pitch_d, yaw_d)
         rot_inv = Rotation.from_euler("ZYX", np.stack([yaw, pitch, roll], axis=1)).inv()
         v_ned = np.column_stack([vg, zd])
         current = np.array([veh.current[0], veh.current[1], 0.0])
@@ -190,6 +184,13 @@ class LawnmowerTrajectory:
             velocity_body=rot_inv.apply(v_ned), water_velocity_body=rot_inv.apply(v_ned - current),
             angular_rate_body=rates, altitude=np.asarray(altitude, float), line=line,
         )
+
+
+def euler_rates_to_body(roll: F64, pitch: F64, roll_d: F64, pitch_d: F64, yaw_d: F64) -> F64:
+    """Body rates (N, 3) rad/s (p, q, r) from ZYX Euler angles (rad) and their rates (rad/s)."""
+    sphi, cphi, sth, cth = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    return np.stack([roll_d - yaw_d * sth, pitch_d * cphi + yaw_d * cth * sphi,
+                     -pitch_d * sphi + yaw_d * cth * cphi], axis=1)
 
 
 def _smoothstep(u: F64) -> tuple[F64, F64, F64]:
