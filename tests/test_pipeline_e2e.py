@@ -9,48 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from live_helpers import classes_against_truth
+from small_mission import SCENE, simulate_small
 
 from auvlink.cli import main
-from auvlink.sim.mission import simulate_to_log
-from auvlink.sim.scene import loads_scene
-
-SCENE = """
-seed = 11
-[seabed]
-depth = 20.0
-slope_deg = 0.0
-slope_azimuth_deg = 0.0
-roughness = 0.02
-[[objects]]
-class = "pipe"
-position = [16.0, 0.3]
-heading_deg = 60.0
-[[objects]]
-class = "reef_c"
-position = [30.0, -0.3]
-heading_deg = 0.0
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 0.0
-line_length = 40.0
-line_spacing = 3.5
-lines = 1
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 10.0
-"""
 
 
 @pytest.fixture(scope="module")
 def mission(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("e2e") / "mission.mcap"
-    simulate_to_log(loads_scene(SCENE), path, progress=False)
+    simulate_small(path)
     return path
 
 

@@ -20,49 +20,16 @@ from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 from PIL import Image
+from small_mission import simulate_small
 
 from auvlink.cli import main
 from auvlink.pipeline.outputs import write_points_ply
 from auvlink.pipeline.results import Detection, MissionResult, Poses
 from auvlink.pipeline.results_mcap import NO_DATUM, cloud_steps, geodetic_track, local_to_geodetic
 from auvlink.pipeline.setup import MissionSetup
-from auvlink.sim.mission import simulate_to_log
-from auvlink.sim.scene import loads_scene
 from auvlink.validation import Site
 from logs_format import MissionLogReader
 from recon.shape import oriented_box
-
-SCENE = """
-seed = 11
-[seabed]
-depth = 20.0
-slope_deg = 0.0
-slope_azimuth_deg = 0.0
-roughness = 0.02
-[[objects]]
-class = "pipe"
-position = [16.0, 0.3]
-heading_deg = 60.0
-[[objects]]
-class = "reef_c"
-position = [30.0, -0.3]
-heading_deg = 0.0
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 0.0
-line_length = 40.0
-line_spacing = 3.5
-lines = 1
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 10.0
-"""
 
 TOPICS = {
     "/tf": "foxglove.FrameTransforms", "/nav/pose": "foxglove.PoseInFrame",
@@ -76,7 +43,7 @@ TOPICS = {
 def replayed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     base = tmp_path_factory.mktemp("viewer")
     log = base / "mission.mcap"
-    simulate_to_log(loads_scene(SCENE), log, progress=False)
+    simulate_small(log)
     out = base / "out"
     assert main(["replay", str(log), "--out", str(out), "--quiet", "--no-report"]) == 0
     return log, out
