@@ -8,9 +8,12 @@ binary or the reason it is missing (the set-up, ``scripts/ensure_system_deps.sh`
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
+import os
 import shutil
+import signal
 import subprocess
 import tempfile
 import time
@@ -45,9 +48,11 @@ class HeadlessChromium:
         import websocket  # the CDP client
 
         self.timeout = timeout
-        self._profile = tempfile.TemporaryDirectory(prefix="auvlink-chromium-")
+        # Chromium's helper processes (renderer, crash handler) may still write into the profile after the
+        # main one exits: the browser gets its own process group, all of it is ended before the profile goes
+        self._profile = tempfile.TemporaryDirectory(prefix="auvlink-chromium-", ignore_cleanup_errors=True)
         self._proc = subprocess.Popen([binary, *FLAGS, f"--user-data-dir={self._profile.name}", "about:blank"],
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         try:
             port = self._port()
             page = self._page_target(port)
@@ -153,6 +158,8 @@ class HeadlessChromium:
             except subprocess.TimeoutExpired:
                 self._proc.kill()
                 self._proc.wait()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self._proc.pid, signal.SIGKILL)  # the helper processes left in the browser's group
         self._profile.cleanup()
 
     def __enter__(self) -> HeadlessChromium:
