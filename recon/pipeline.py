@@ -26,9 +26,10 @@ from recon.errors import GeometryError, ReconError
 from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude
 from recon.front_slope import arc_columns, carve_keep, replace_on_arcs
-from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project, returns_between
+from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project
 from recon.poll_seabed import object_points, on_seabed
 from recon.seabed import SeabedConfig, SeabedModel
+from recon.seabed_band import BandConfig, OnsetTracker, seabed_returns
 from recon.seabed_texture import SeabedCells, TextureConfig, TexturedSeabed, fit_textured
 from recon.sonar_geometry import SonarGeometry
 
@@ -55,7 +56,7 @@ class ReconConfig:
     front_slope_tol_bins: float = 1.5  # range tolerance of the carving test
     far_side: FarSideConfig = field(default_factory=FarSideConfig)  # arc method: centroid (recon.far_side)
     seabed_every: int = 5  # sonar seabed returns from every n-th frame (0 = none)
-    seabed_band_m: float = 1.0  # search the seabed return this far beyond the onset margin
+    band: BandConfig = field(default_factory=BandConfig)  # each column's seabed return (recon.seabed_band)
     remove_seabed: bool = True
     onset_from_seabed: bool = True  # expected onset from the fitted seabed (sloped seabeds), not flat
     onset_radius: float = 30.0  # m of seabed points around the vehicle used for that fit
@@ -85,6 +86,8 @@ class Reconstructor:
         self._hist_mws: list[F64] = []
         self.front_slope_removed = 0
         self._onset_cache: tuple[F64, F64, int, SeabedModel] | None = None
+        self._onset_model: SeabedModel | None = None  # the fit behind the latest expected onsets
+        self._tracker = OnsetTracker(geometry.n_beams, self.config.band)
         self._onset_fit_frame = 0
         self._stream: StreamingClusterer | None = None
         self._cells = SeabedCells(self.config.texture.cell)  # filled only with the texture grid on
@@ -132,33 +135,20 @@ class Reconstructor:
         check_attitude(rot)
         alt = self.poses.altitude_at(ts)
         onset = self._onset(pos, rot, alt)
+        band = self.config.band
+        lead = onset_rows(g, onset, hc.margin_m + max(band.lead_m, band.lead_flat_m))
+        thr = frame_thresholds(imgs, int(lead.min(initial=g.n_bins)), hc)
+        # each column's seabed return, and the expected onset corrected by them (recon.seabed_band)
+        # with no seabed fitted yet (the first seconds) the onset assumes a flat seabed: search much wider
+        lead_m = band.lead_m if self._onset_model is not None else band.lead_flat_m
+        sf, sb, sr = seabed_returns(g, imgs, onset, thr, hc.margin_m, band, lead_m)
+        if band.correct_onset:
+            onset = self._tracker.correct(g, onset, sf, sb, sr)
         limits = onset_rows(g, onset, hc.margin_m)
-        thr = frame_thresholds(imgs, int(limits.min(initial=g.n_bins)), hc)
         fi, bi, ri = first_returns(imgs, limits, thr, hc)
         self.last_returns = (fi, bi, ri)
-        tex = self.config.texture.enabled
-        if self.config.seabed_every > 0 or tex:
-            nth = max(1, self.config.seabed_every)
-            every_frame = (self.frames + np.arange(ts.size)) % nth == 0
-            sel = np.arange(ts.size) if tex else np.flatnonzero(every_frame)
-            if sel.size:
-                hi = onset_rows(g, onset[sel], hc.margin_m - self.config.seabed_band_m)
-                sf, sb, sr = returns_between(imgs[sel], limits[sel], hi, thr[sel], hc.min_run)
-                dense = sb % max(1, self.config.texture_beam_step) == 0
-                sparse = (sb % max(1, self.config.seabed_beam_step) == 0) & every_frame[sel][sf]
-                if self.config.seabed_every <= 0:
-                    sparse[:] = False
-                keep = dense | sparse
-                sp = project(g, sel[sf[keep]], sb[keep], sr[keep], pos, rot, "exact")
-                if tex:
-                    self._cells.add(sp[dense[keep]])
-                sp = sp[sparse[keep]]
-                if sp.shape[0]:
-                    self._seabed.append(np.asarray(sp, dtype=np.float64))
-                    self._n_seabed += sp.shape[0]
+        self._add_seabed_samples(sf, sb, sr, fi, bi, onset, pos, rot)
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
-        if tex and fi.size:  # the first returns before the onset: seabed crests (and objects, clipped)
-            self._cells.add(pts)
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if self._arc else np.zeros((fi.size, 0))
         if self.config.front_slope and self.config.front_slope_method == "carve":
             keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)
@@ -173,16 +163,51 @@ class Reconstructor:
             self._raw.append(np.asarray(pts, dtype=np.float64))
         return int(fi.size)
 
+    def _add_seabed_samples(self, sf: NDArray[np.int64], sb: NDArray[np.int64], sr: NDArray[np.int64],
+                            fi: NDArray[np.int64], bi: NDArray[np.int64], onset: F64, pos: F64, rot: Rotation
+                            ) -> None:
+        """The seabed returns ``(sf, sb, sr)`` of a batch as seabed samples: every ``texture_beam_step``-th beam
+        into the texture grid, every ``seabed_beam_step``-th beam of every ``seabed_every``-th frame into the
+        tiled planes' points. Left out: returns more than ``band.sample_lead_m`` before the (corrected) onset
+        (an object's front, a high crest) and columns whose highlight return came before the seabed return
+        (the seabed return is then not the column's first: it lies under the seabed)."""
+        g, cfg = self.geometry, self.config
+        tex = cfg.texture.enabled
+        if not (tex or cfg.seabed_every > 0) or sf.size == 0:
+            return
+        first = np.full((onset.shape[0], g.n_beams), g.n_bins, np.int64)
+        first[fi, bi] = self.last_returns[2]
+        near = g.ranges[sr] >= onset[sf, sb] - cfg.highlight.margin_m - cfg.band.sample_lead_m
+        ok = near & (first[sf, sb] >= sr)
+        sf, sb, sr = sf[ok], sb[ok], sr[ok]
+        nth = max(1, cfg.seabed_every)
+        every_frame = (self.frames + np.arange(onset.shape[0])) % nth == 0
+        dense = (sb % max(1, cfg.texture_beam_step) == 0) & tex
+        sparse = (sb % max(1, cfg.seabed_beam_step) == 0) & every_frame[sf] & (cfg.seabed_every > 0)
+        keep = dense | sparse
+        sp = project(g, sf[keep], sb[keep], sr[keep], pos, rot, "exact")
+        if tex:
+            self._cells.add(sp[dense[keep]])
+        sp = sp[sparse[keep]]
+        if sp.shape[0]:
+            self._seabed.append(np.asarray(sp, dtype=np.float64))
+            self._n_seabed += sp.shape[0]
+
     def _onset(self, pos: F64, rot: Rotation, alt: F64) -> F64:
         """Expected seabed onset per frame and beam: the fitted seabed plane where the fan looks
         (DVL + sonar seabed points), else a flat seabed at the DVL altitude."""
+        model = self._seabed_model(pos) if self.config.onset_from_seabed else None
+        onset = self._onset_of(model, pos, rot, alt)
+        if model is not self._onset_model:  # a new fit: the tracked correction stays on the same seabed
+            self._tracker.rebase(self._onset_of(self._onset_model, pos[:1], rot[:1], alt[:1])[0] - onset[0])
+            self._onset_model = model
+        return onset
+
+    def _onset_of(self, model: SeabedModel | None, pos: F64, rot: Rotation, alt: F64) -> F64:
+        """Onset ranges (F, beams) predicted by ``model`` (None: a flat seabed at the DVL altitude)."""
         g = self.geometry
-        flat = g.flat_onset_ranges(pos, rot, alt)
-        if not self.config.onset_from_seabed:
-            return flat
-        model = self._seabed_model(pos)
         if model is None:
-            return flat
+            return g.flat_onset_ranges(pos, rot, alt)
         known = np.isfinite(alt)
         h = alt if known.all() else np.where(known, alt, model.depth_at(pos) - pos[:, 2])
         fwd = rot.as_matrix().reshape(-1, 3, 3)[:, :2, 0]

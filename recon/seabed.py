@@ -42,7 +42,8 @@ class SeabedConfig:
     iterations: int = 5
     clip_sigma: float = 3.0
     sigma_floor: float = 0.05  # m
-    ridge: float = 1e-3
+    ridge: float = 0.05  # pulls a tile's slope to the regional plane's (a tile its points do not span)
+    regional_span: float = 2.0  # m: the regional plane's slope shrinks to 0 for points spanning much less
     min_height: float = 0.05  # m above the seabed to count as an object point (first detections: ~margin sin(t + s/2))
     max_height: float = 10.0  # m: higher returns (fish, surface) are dropped
 
@@ -54,10 +55,13 @@ def _key(ij: NDArray[np.int64]) -> NDArray[np.int64]:
 class SeabedModel:
     """Tiled robust plane fit of the seabed; see the module docstring."""
 
-    def __init__(self, tile: float, ij: NDArray[np.int64], coef: F64) -> None:
+    def __init__(self, tile: float, ij: NDArray[np.int64], coef: F64, regional: F64 | None = None) -> None:
         if ij.shape[0] == 0:
             raise ReconError("seabed model has no fitted tile (too few seabed points)")
         self.tile = float(tile)
+        #: (depth at the centre, d depth / d north, d depth / d east, centre north, centre east): one plane
+        #: through all the points, for tiles without points of their own
+        self.regional = regional
         order = np.argsort(_key(ij))
         self.ij = ij[order]
         self.coef = coef[order]
@@ -70,6 +74,9 @@ class SeabedModel:
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         p = p[np.all(np.isfinite(p), axis=1)]
         t = cfg.tile
+        regional = regional_plane(p, cfg)
+        # each tile fits its departure from the regional plane; the ridge pulls its slope to the regional one
+        base = _plane_depth(regional, p[:, :2]) if regional is not None else np.zeros(p.shape[0])
         cell = np.floor(p[:, :2] / t).astype(np.int64)
         # every (point, tile) pair: the point's tile and the neighbours whose expanded box holds it
         pt_idx = np.repeat(np.arange(p.shape[0]), 9)
@@ -81,7 +88,7 @@ class SeabedModel:
         keys, tix = np.unique(_key(tiles), return_inverse=True)
         n_t = keys.size
         counts = np.bincount(tix, minlength=n_t)
-        z = p[pt_idx, 2]
+        z = p[pt_idx, 2] - base[pt_idx]
         a = np.stack([np.ones_like(d[:, 0]), d[:, 0], d[:, 1]], axis=1)
         w = np.ones(z.size)
         coef = np.zeros((n_t, 3))
@@ -108,16 +115,21 @@ class SeabedModel:
         good = np.bincount(tix, weights=w, minlength=n_t) >= cfg.min_points
         good &= counts >= cfg.min_points
         ij = np.stack([keys >> 32, (keys & 0xFFFFFFFF).astype(np.int32).astype(np.int64)], axis=1)
-        return cls(t, ij[good], coef[good])
+        if regional is not None:  # back to absolute planes
+            coef[:, 0] += _plane_depth(regional, (ij + 0.5) * t)
+            coef[:, 1] += regional[1] * t
+            coef[:, 2] += regional[2] * t
+        return cls(t, ij[good], coef[good], regional)
 
-    def _lookup(self, ij: NDArray[np.int64]) -> NDArray[np.int64]:
+    def _lookup(self, ij: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+        """Index of each tile's plane (the nearest fitted tile where it has none) and whether it had one."""
         k = _key(ij)
         pos = np.clip(np.searchsorted(self._keys, k), 0, self._keys.size - 1)
         found = self._keys[pos] == k
         if not np.all(found):
             _, near = self._tree.query(ij[~found].astype(np.float64))
             pos[~found] = near
-        return pos
+        return pos, found
 
     def _blend(self, q: F64) -> tuple[F64, F64]:
         """Depth and its horizontal gradient (N, 2) at ``q``: bilinear blend of the 4 tile planes."""
@@ -128,11 +140,20 @@ class SeabedModel:
         grad = np.zeros((q.shape[0], 2))
         for di in (0, 1):
             for dj in (0, 1):
-                idx = self._lookup(i0 + np.array([di, dj]))
+                idx, found = self._lookup(i0 + np.array([di, dj]))
                 c = self.coef[idx]
                 d = q / self.tile - (self.ij[idx] + 0.5)
                 wx = fr[:, 0] if di else 1.0 - fr[:, 0]
                 wy = fr[:, 1] if dj else 1.0 - fr[:, 1]
+                if self.regional is not None and not found.all():
+                    # a tile without points: the regional plane (a neighbour's plane extrapolated over
+                    # several metres put the onset ahead of a new line 0.5-1.5 m too deep)
+                    c = c.copy()
+                    lost = ~found
+                    c[lost, 0] = _plane_depth(self.regional, q[lost])
+                    c[lost, 1], c[lost, 2] = self.regional[1] * self.tile, self.regional[2] * self.tile
+                    d = d.copy()
+                    d[lost] = 0.0
                 plane = c[:, 0] + c[:, 1] * d[:, 0] + c[:, 2] * d[:, 1]
                 depth += wx * wy * plane
                 grad[:, 0] += ((1.0 if di else -1.0) * wy * plane + wx * wy * c[:, 1]) / self.tile
@@ -155,6 +176,37 @@ class SeabedModel:
         z, g = self._blend(q)
         n = np.column_stack([g, -np.ones(q.shape[0])])
         return np.column_stack([q, z]), n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def _plane_depth(plane: F64, q: F64) -> F64:
+    """Depth of a :func:`regional_plane` at the horizontal positions ``q`` (N, 2)."""
+    return np.asarray(plane[0] + plane[1] * (q[:, 0] - plane[3]) + plane[2] * (q[:, 1] - plane[4]), np.float64)
+
+
+def regional_plane(p: F64, cfg: SeabedConfig) -> F64 | None:
+    """One plane through all the points (N, 3), fitted as each tile's (deeper half first, then points
+    within ``clip_sigma`` sigmas): (depth at the centre, gradient north, gradient east, centre north,
+    centre east); None with fewer than ``min_points``."""
+    if p.shape[0] < cfg.min_points:
+        return None
+    c = p[:, :2].mean(axis=0)
+    d = p[:, :2] - c
+    a = np.column_stack([np.ones(p.shape[0]), d])
+    w = np.ones(p.shape[0])
+    coef = np.zeros(3)
+    for it in range(max(2, cfg.iterations)):
+        aw = a * w[:, None]
+        # the slope is trusted only where the points span more than ~regional_span m: on a rough seabed the
+        # slope over a few metres is the texture's (10 deg and more), not the seabed's
+        ata = aw.T @ a + np.diag([1e-12, 1.0, 1.0]) * cfg.regional_span**2 * max(w.sum(), 1e-12)
+        coef = np.linalg.solve(ata, aw.T @ p[:, 2])
+        res = p[:, 2] - a @ coef
+        if it == 0:
+            w = (res >= 0).astype(np.float64)
+            continue
+        sigma = max(float(np.sqrt(np.sum(w * res**2) / max(w.sum(), 1e-12))), cfg.sigma_floor)
+        w = (np.abs(res) <= cfg.clip_sigma * sigma).astype(np.float64)
+    return np.array([coef[0], coef[1], coef[2], c[0], c[1]])
 
 
 def object_mask(points: ArrayLike, model: SeabedModel, config: SeabedConfig | None = None

@@ -1,0 +1,112 @@
+"""The seabed return of each column (frame, beam), and the expected onset corrected by it.
+
+Recon places every return on the steepest ray of its beam (elevation ``t + s/2``). That is right for a
+column's *first* return: the steepest ray meets the seabed (or a crest, or an object) nearest. A later
+return comes from a shallower ray, and placed on the steepest ray it lies *under* the seabed. Two
+things made the seabed samples late, and so 0.1-0.5 m too deep on rough seabeds:
+
+- the search began at the expected onset (minus a 0.1 m margin) of the seabed fitted so far: where
+  that fit was too deep, the search began past the true onset, the sample came out deeper still and
+  the next fit deeper again (onsets 0.5-1.5 m of depth too deep, measured on random surveys);
+- it asked for two bins above the threshold, but the steepest ray's return is one ray in one bin
+  (the rays of a beam meet a flat seabed 2-5 bins apart), so the detection waited for a bin pair.
+
+So (:func:`seabed_returns`): per column, the first bin above the frame's threshold from ``lead_m`` of
+range before the expected onset to ``band_m`` after it (one bin is enough: ``min_run``). Speckle above the
+threshold in the water column is rare (well under 1 % of columns over a metre of range) and the fits
+that use these samples are robust.
+
+The expected onset itself (:class:`OnsetTracker`): the seabed fitted so far predicts it, and the
+measured returns correct it where the fit is off (ahead of a new line, over a crest field the tiles do
+not follow). Per beam, the correction is tracked from frame to frame: each frame, the returns within
+``gate_m`` of the previous correction (the seabed; an object's returns come earlier, the seabed in its
+shadow later, and an object near the sonar can fill most of the fan) refit a line across the beams.
+When the fit behind the prediction changes, the correction is carried over (:meth:`OnsetTracker.rebase`),
+so it stays continuous; in a frame with too few returns near it, it relaxes towards the fit's own onset.
+It never puts the onset more than ``max_deeper_m`` beyond the fit's: a seabed searched past its true onset
+turns into highlight points, while an onset put too near only shortens the highlights. The highlight search
+uses the corrected onset.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from recon.highlight import onset_rows, returns_between
+from recon.sonar_geometry import SonarGeometry
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class BandConfig:
+    lead_m: float = 1.0  # m of range: search from this far before the expected onset (its error must be less)
+    lead_flat_m: float = 3.0  # m of range: the same while no seabed is fitted (a flat seabed assumed)
+    band_m: float = 1.0  # m of range: ... to this far after it
+    min_run: int = 1  # bins above the threshold (the steepest ray's return is one bin)
+    min_beams: int = 16  # returns on the seabed needed to correct the onset
+    sample_lead_m: float = 0.3  # m of range: seabed samples at most this far before the corrected onset
+    # fraction of the way to each frame's fit: a fit error persists while the vehicle flies over it, a low
+    # object wide across the fan (a pipe) looks like a seabed shift for only the few frames it is a highlight
+    rate: float = 0.1
+    gate_m: float = 0.15  # m of range: returns this near the previous correction are the seabed's
+    # m of range: the onset is never moved farther than this beyond the fit's (a seabed searched past its true
+    # onset turns into highlight points; an onset put too near only shortens the highlights)
+    max_deeper_m: float = 0.1
+    correct_onset: bool = True  # the highlight search uses the onset corrected by the measured returns
+
+
+def seabed_returns(geometry: SonarGeometry, images: NDArray[np.uint8], onset: F64, thr: F64, margin_m: float,
+                   cfg: BandConfig, lead_m: float | None = None) -> tuple[I64, I64, I64]:
+    """(frame, beam, row) of each column's first return near its expected ``onset`` (F, beams) m, searched
+    from ``lead_m`` (default ``cfg.lead_m``) before it."""
+    lo = onset_rows(geometry, onset, margin_m + (cfg.lead_m if lead_m is None else lead_m))
+    hi = onset_rows(geometry, onset, margin_m - cfg.band_m)
+    return returns_between(images, lo, hi, thr, cfg.min_run)
+
+
+class OnsetTracker:
+    """Per-beam correction (m of range) of the expected onset, tracked over frames; see the module docstring."""
+
+    def __init__(self, n_beams: int, cfg: BandConfig) -> None:
+        self.cfg = cfg
+        self.est = np.zeros(n_beams)
+        self.ready = False  # the first frame with enough returns sets the correction outright
+        self._beams = np.arange(n_beams, dtype=np.float64)
+
+    def rebase(self, delta: F64) -> None:
+        """The prediction moved by ``-delta`` (new fit): keep the corrected onset where it was."""
+        self.est = np.clip(self.est + np.asarray(delta, np.float64), -self.cfg.lead_flat_m, self.cfg.max_deeper_m)
+
+    def correct(self, geometry: SonarGeometry, onset: F64, fi: I64, bi: I64, ri: I64) -> F64:
+        """Corrected onsets (F, beams) m of the frames of a batch, in time order."""
+        cfg = self.cfg
+        f, nb = onset.shape
+        d = np.full((f, nb), np.nan)
+        d[fi, bi] = geometry.ranges[ri] - onset[fi, bi]
+        out = np.empty((f, nb))
+        for k in range(f):
+            row = d[k]
+            if not self.ready and np.isfinite(row).sum() >= cfg.min_beams:
+                self.est = np.full(nb, float(np.nanmedian(row)))
+                self.ready = True
+            inl = np.isfinite(row) & (np.abs(row - self.est) <= cfg.gate_m)
+            if inl.sum() >= cfg.min_beams:
+                self.est = self.est + cfg.rate * (self._line(self._beams[inl], row[inl]) - self.est)
+            else:  # too few returns near it (an object fills the fan): back towards the fit's own onset
+                self.est = self.est * (1.0 - cfg.rate)
+            self.est = np.clip(self.est, -cfg.lead_flat_m, cfg.max_deeper_m)
+            out[k] = onset[k] + self.est
+        return out
+
+    def _line(self, b: F64, y: F64) -> F64:
+        """Least-squares line through (beam, correction), evaluated at every beam (a constant when the
+        beams span less than a quarter of the fan)."""
+        if np.ptp(b) < 0.25 * self._beams.size:
+            return np.full(self._beams.size, float(np.median(y)))
+        c = np.polyfit(b, y, 1)
+        return np.asarray(c[0] * self._beams + c[1], dtype=np.float64)
