@@ -139,8 +139,10 @@ class Reconstructor:
         lead = onset_rows(g, onset, hc.margin_m + max(band.lead_m, band.lead_flat_m))
         thr = frame_thresholds(imgs, int(lead.min(initial=g.n_bins)), hc)
         # each column's seabed return, and the expected onset corrected by them (recon.seabed_band)
-        # with no seabed fitted yet (the first seconds) the onset assumes a flat seabed: search much wider
-        lead_m = band.lead_m if self._onset_model is not None else band.lead_flat_m
+        # while the seabed fitted so far spans only a few metres (the first seconds of a survey) its slope is
+        # unknown (the regional plane is level; recon.seabed): search much wider
+        known = self._onset_model is not None and self._onset_model.span >= band.known_span_m
+        lead_m = band.lead_m if known else band.lead_flat_m
         sf, sb, sr = seabed_returns(g, imgs, onset, thr, hc.margin_m, band, lead_m)
         if band.correct_onset:
             onset = self._tracker.correct(g, onset, sf, sb, sr)
@@ -149,6 +151,8 @@ class Reconstructor:
         self.last_returns = (fi, bi, ri)
         self._add_seabed_samples(sf, sb, sr, fi, bi, onset, pos, rot)
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
+        if self.config.texture.enabled and self.config.texture.highlights and fi.size:
+            self._cells.add(pts)  # the first returns before the onset: crests (objects: their cells are found)
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if self._arc else np.zeros((fi.size, 0))
         if self.config.front_slope and self.config.front_slope_method == "carve":
             keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)

@@ -62,6 +62,8 @@ class SeabedModel:
         #: (depth at the centre, d depth / d north, d depth / d east, centre north, centre east): one plane
         #: through all the points, for tiles without points of their own
         self.regional = regional
+        #: m: the larger horizontal extent of the points fitted (set by :meth:`fit`; inf when built directly)
+        self.span = float("inf")
         order = np.argsort(_key(ij))
         self.ij = ij[order]
         self.coef = coef[order]
@@ -119,7 +121,9 @@ class SeabedModel:
             coef[:, 0] += _plane_depth(regional, (ij + 0.5) * t)
             coef[:, 1] += regional[1] * t
             coef[:, 2] += regional[2] * t
-        return cls(t, ij[good], coef[good], regional)
+        model = cls(t, ij[good], coef[good], regional)
+        model.span = float(np.max(np.ptp(p[:, :2], axis=0))) if p.shape[0] else 0.0
+        return model
 
     def _lookup(self, ij: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
         """Index of each tile's plane (the nearest fitted tile where it has none) and whether it had one."""

@@ -22,7 +22,8 @@ not follow). Per beam, the correction is tracked from frame to frame: each frame
 ``gate_m`` of the previous correction (the seabed; an object's returns come earlier, the seabed in its
 shadow later, and an object near the sonar can fill most of the fan) refit a line across the beams.
 When the fit behind the prediction changes, the correction is carried over (:meth:`OnsetTracker.rebase`),
-so it stays continuous; in a frame with too few returns near it, it relaxes towards the fit's own onset.
+so it stays continuous; a frame with too few returns near it leaves it as it is.
+After ``reacquire`` such frames in a row it is taken afresh: the median of the frame's returns.
 It never puts the onset more than ``max_deeper_m`` beyond the fit's: a seabed searched past its true onset
 turns into highlight points, while an onset put too near only shortens the highlights. The highlight search
 uses the corrected onset.
@@ -45,7 +46,8 @@ I64 = NDArray[np.int64]
 @dataclass(frozen=True)
 class BandConfig:
     lead_m: float = 1.0  # m of range: search from this far before the expected onset (its error must be less)
-    lead_flat_m: float = 3.0  # m of range: the same while no seabed is fitted (a flat seabed assumed)
+    lead_flat_m: float = 3.0  # m of range: the same while the seabed fitted so far spans less than ...
+    known_span_m: float = 15.0  # m (its slope is not known yet)
     band_m: float = 1.0  # m of range: ... to this far after it
     min_run: int = 1  # bins above the threshold (the steepest ray's return is one bin)
     min_beams: int = 16  # returns on the seabed needed to correct the onset
@@ -54,6 +56,7 @@ class BandConfig:
     # object wide across the fan (a pipe) looks like a seabed shift for only the few frames it is a highlight
     rate: float = 0.1
     gate_m: float = 0.15  # m of range: returns this near the previous correction are the seabed's
+    reacquire: int = 8  # frames in a row without enough of them: the correction is the median of the returns
     # m of range: the onset is never moved farther than this beyond the fit's (a seabed searched past its true
     # onset turns into highlight points; an onset put too near only shortens the highlights)
     max_deeper_m: float = 0.1
@@ -76,6 +79,7 @@ class OnsetTracker:
         self.cfg = cfg
         self.est = np.zeros(n_beams)
         self.ready = False  # the first frame with enough returns sets the correction outright
+        self._misses = 0  # frames in a row without enough returns near the correction
         self._beams = np.arange(n_beams, dtype=np.float64)
 
     def rebase(self, delta: F64) -> None:
@@ -97,8 +101,15 @@ class OnsetTracker:
             inl = np.isfinite(row) & (np.abs(row - self.est) <= cfg.gate_m)
             if inl.sum() >= cfg.min_beams:
                 self.est = self.est + cfg.rate * (self._line(self._beams[inl], row[inl]) - self.est)
-            else:  # too few returns near it (an object fills the fan): back towards the fit's own onset
-                self.est = self.est * (1.0 - cfg.rate)
+                self._misses = 0
+            else:
+                # too few returns near it: an object fills the fan (for a few frames), or the fit's error changed
+                # faster than the correction follows (a turn sweeps the fan over seabed the fit knows less)
+                self._misses += 1
+                ok = np.isfinite(row)
+                if self._misses >= cfg.reacquire and ok.sum() >= cfg.min_beams:
+                    self.est = np.full(nb, float(np.median(row[ok])))
+                    self._misses = 0
             self.est = np.clip(self.est, -cfg.lead_flat_m, cfg.max_deeper_m)
             out[k] = onset[k] + self.est
         return out

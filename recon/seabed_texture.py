@@ -60,6 +60,7 @@ class TextureConfig:
     # live run whose dead reckoning started late), and 5 x that would ask more height than the lowest
     # catalogue objects have (half pipe 0.3 m): the cap keeps two thirds of the lowest object's height
     max_threshold: float = 0.2
+    highlights: bool = True  # the highlight points feed the grid too (seabed the onset search put before it)
     max_cells: int = 400_000  # a box larger than this many cells is fitted at a coarser cell
 
 
