@@ -307,7 +307,7 @@ class Reconstructor:
     def _arc(self) -> bool:
         return self.config.front_slope and self.config.front_slope_method == "arc"
 
-    def _fit_seabed(self, lo: F64, hi: F64) -> TexturedSeabed | SeabedModel | None:
+    def fit_seabed(self, lo: F64, hi: F64) -> TexturedSeabed | SeabedModel | None:
         """The seabed over the box ``lo``-``hi`` (north, east), fitted once per poll: tiled planes from the
         seabed points around it, and on them the texture grid (:mod:`recon.seabed_texture`)."""
         pad = self.config.seabed.tile * 2.0
@@ -335,7 +335,7 @@ class Reconstructor:
             return p, t, e
         if p.shape[0] == 0:
             return p, t, e
-        model = self._fit_seabed(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
+        model = self.fit_seabed(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
         if model is None:
             return p, t, e
         self.seabed = model
@@ -350,7 +350,7 @@ class Reconstructor:
             lo = np.min([o.points[:, :2].min(axis=0) for o in objects], axis=0)
             hi = np.max([o.points[:, :2].max(axis=0) for o in objects], axis=0)
             if not model.covers(lo, hi):  # objects finalized away from this poll's new points
-                model = self._fit_seabed(lo, hi) or model
+                model = self.fit_seabed(lo, hi) or model
         return on_seabed(objects, model, self.config.max_object_extent, self.config.min_object_height, self.rejected)
 
     def _finalize(self, objects: list[DetectedObject]) -> list[DetectedObject]:
