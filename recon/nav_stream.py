@@ -294,12 +294,14 @@ class CausalNavigator:
             alt = alt + rot.apply(lever)[:, 2]
         return np.asarray(alt, dtype=np.float64)
 
-    def take_seabed_points(self, until: float = np.inf) -> F64:
-        """Seabed points (position + altitude down) of the grid rows up to ``until`` not taken yet."""
+    def take_seabed_points(self, until: float = np.inf, max_pitch: float = np.inf) -> F64:
+        """Seabed points (position + altitude down) of the grid rows up to ``until`` not taken yet, less those
+        while the vehicle pitched more than ``max_pitch`` rad (diving or climbing, the altitude far from the
+        seabed under the vehicle: it put the regional seabed plane metres off)."""
         end = int(np.searchsorted(self.grid.view[:, T], until, side="right"))
         h = self.grid.view[self._seabed_from : end]
         self._seabed_from = max(self._seabed_from, end)
-        h = h[np.isfinite(h[:, ALT])]
+        h = h[np.isfinite(h[:, ALT]) & (np.abs(h[:, PITCH]) <= max_pitch)]
         if not h.shape[0]:
             return np.zeros((0, 3))
         pos, _ = self.pose_at(h[:, T])

@@ -226,7 +226,8 @@ class Engine:
         if not good:
             return 0
         sel, ts = sel[good], times[sel[good]]
-        self.rec.add_seabed_points(self.nav.take_seabed_points(until=float(ts.max())))
+        self.rec.add_seabed_points(self.nav.take_seabed_points(until=float(ts.max()),
+                                                                max_pitch=np.radians(self.config.max_pitch_deg)))
         stack = np.stack([imgs[k] for k in good])
         self.rec.add_frames(ts, stack)
         if self._on_frames is not None:
