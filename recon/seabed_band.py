@@ -117,7 +117,9 @@ class OnsetTracker:
     def _line(self, b: F64, y: F64) -> F64:
         """Least-squares line through (beam, correction), evaluated at every beam (a constant when the
         beams span less than a quarter of the fan)."""
-        if np.ptp(b) < 0.25 * self._beams.size:
+        if b[-1] - b[0] < 0.25 * self._beams.size:  # beams ascending
             return np.full(self._beams.size, float(np.median(y)))
-        c = np.polyfit(b, y, 1)
-        return np.asarray(c[0] * self._beams + c[1], dtype=np.float64)
+        bm, ym = b.mean(), y.mean()
+        db = b - bm
+        slope = float(db @ (y - ym)) / float(db @ db)
+        return np.asarray(ym + slope * (self._beams - bm), dtype=np.float64)
