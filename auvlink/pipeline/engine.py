@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial.transform import Rotation
 
 from auvlink.geodesy import Datum
 from auvlink.pipeline.georef import Georef
@@ -51,6 +52,8 @@ from recon.sonar_geometry import SonarGeometry
 
 if TYPE_CHECKING:
     from classify.infer import Classifier
+
+TURN_WINDOW_S = 0.5  # s: the heading rate of a frame is its heading change over this time before it
 
 #: ``on_frames(geometry, times, images, returns)``: frames just reconstructed (mission times s, (F, bins,
 #: beams) uint8) and their highlight returns ((frame, beam, row) arrays, :attr:`Reconstructor.last_returns`)
@@ -79,6 +82,7 @@ class EngineConfig:
     poll_s: float = 1.0  # mission seconds between streaming-clustering polls
     max_extrapolation_s: float = 1.0  # a frame this far past the last navigation sample is skipped
     max_pitch_deg: float = 15.0  # frames while the vehicle pitches more (diving, climbing) are skipped
+    max_turn_rate_deg_s: float = 6.0  # frames while the vehicle turns faster (line ends) are skipped
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -199,6 +203,17 @@ class Engine:
             done += self._group(group)
         return done
 
+    def _turn_rate(self, times: npt.NDArray[np.float64], rot: Rotation) -> npt.NDArray[np.float64]:
+        """|heading rate| (rad/s) at ``times``: the heading change over the ``TURN_WINDOW_S`` before each."""
+        earlier = times - TURN_WINDOW_S
+        known = self.nav.covered(earlier)
+        rate = np.zeros(times.size)
+        if known.any():
+            _, r0 = self.nav.pose_at(earlier[known])
+            d = rot[known].as_euler("ZYX")[:, 0] - r0.as_euler("ZYX")[:, 0]
+            rate[known] = np.abs((d + np.pi) % (2 * np.pi) - np.pi) / TURN_WINDOW_S
+        return rate
+
     def _group(self, group: list[tuple[int, SonarPayload]]) -> int:
         t_start = time.perf_counter()
         self.counts["frames"] += len(group)
@@ -209,7 +224,12 @@ class Engine:
             _, rot = self.nav.pose_at(times[ok])
             steep = np.abs(rot.as_euler("ZYX")[:, 1]) > np.radians(self.config.max_pitch_deg)
             self.counts["frames_pitched"] = self.counts.get("frames_pitched", 0) + int(steep.sum())
-            ok[np.flatnonzero(ok)[steep]] = False
+            # turning at the end of a line: the fan sweeps sideways over seabed the fit ahead does not know,
+            # and the onset correction cannot follow it (false objects in every turn on rough, sloped seabeds)
+            turning = self._turn_rate(times[ok], rot) > np.radians(self.config.max_turn_rate_deg_s)
+            turning &= ~steep
+            self.counts["frames_turning"] = self.counts.get("frames_turning", 0) + int(turning.sum())
+            ok[np.flatnonzero(ok)[steep | turning]] = False
         for (_, fr), t in zip(group, times, strict=True):
             self._ring.append((float(t), fr.image))
         if not ok.any():
