@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from auvlink.progress import progress_bar
 from auvlink.sim.catalog import MATERIALS
 from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
@@ -276,8 +277,6 @@ def synthesize_clutter(settings: SynthesisSettings, count: int, progress: bool =
     and, per cloud, the heading and tilt (deg) of the patch's first line. Patch ``i`` draws from
     ``SeedSequence([seed, crc32("clutter"), i])``; patches are drawn until ``count`` clusters came (a cluster
     that one line alone gave is not repeated as the fused cloud of all lines)."""
-    from auvlink.progress import progress_bar
-
     crc = zlib.crc32(CLUTTER.encode())
     clouds: list[npt.NDArray[np.float32]] = []
     meta: list[tuple[float, float]] = []
