@@ -217,7 +217,7 @@ def run(quick: bool, out_dir: Path) -> dict[str, Any]:
     if DEFAULT_MODEL.is_file() and not smoke():
         from auvlink.evaluation.recon_eval import reconstruct_set, standard_passes
 
-        clouds = reconstruct_set(clf.class_names, standard_passes(quick), cache_dir=cache)
+        clouds = reconstruct_set(clf.object_classes, standard_passes(quick), cache_dir=cache)
         rec = _recon(clf, clouds)
         print(f"\nrecon clouds ({rec['passes']} passes, {rec['not_detected']} not detected, median "
               f"{rec['median_points']:.0f} points): accuracy {rec['accuracy']:.3f}, macro precision "

@@ -12,6 +12,13 @@
   deeper by one uniform draw in ``[lo, hi]`` (normalized units; the object looks that much taller), as
   recon's fitted seabed is uncertain and, its seabed returns lagging like the object's, biased deep
   (0-0.12 m on simulated passes).
+* seabed slope (``tilt_deg``, seabed-referenced clouds only): each cloud turned about a random horizontal axis
+  through its centre on the seabed by up to ``tilt_deg``: an object rests on a sloped seabed tilted with it,
+  and recon gives the classifier one seabed depth under it (the planes' median), so the cloud leans;
+* attached clutter (``attach_prob``, with a pool of clutter clouds): an object cloud gets a fraction (drawn from
+  ``attach_fraction``) of its points replaced by those of a clutter cloud placed against its side (a random
+  direction, its centre ``attach_gap`` times the object's horizontal radius out), then re-centred: on a rough
+  seabed recon's cluster of an object often holds a crest next to it.
 """
 
 from __future__ import annotations
@@ -21,6 +28,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial.transform import Rotation
 
 F32 = npt.NDArray[np.float32]
 
@@ -35,6 +43,10 @@ class AugmentConfig:
     cut_prob: float = 0.0
     cut_max: float = 0.4
     z_shift: tuple[float, float] = (0.0, 0.0)
+    tilt_deg: float = 0.0
+    attach_prob: float = 0.0
+    attach_fraction: tuple[float, float] = (0.05, 0.3)
+    attach_gap: tuple[float, float] = (0.8, 1.5)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -110,16 +122,56 @@ def plane_cut(points: F32, rng: np.random.Generator, prob: float, max_ratio: flo
     return out
 
 
+def random_tilt(points: F32, rng: np.random.Generator, max_deg: float) -> F32:
+    """Turn each cloud about a random horizontal axis through its horizontal centre at ``z = 0`` (the seabed)
+    by an angle uniform in ``[0, max_deg]`` degrees."""
+    b = len(points)
+    a = rng.uniform(0.0, 2 * np.pi, size=b)
+    axis = np.stack([np.cos(a), np.sin(a), np.zeros(b)], axis=1) * np.radians(rng.uniform(0.0, max_deg, b))[:, None]
+    rot = Rotation.from_rotvec(axis).as_matrix().astype(np.float32)
+    centre = points.mean(axis=1, keepdims=True)
+    centre[..., 2] = 0.0
+    return (np.einsum("bnj,bij->bni", points - centre, rot) + centre).astype(np.float32)
+
+
+def attach_clutter(points: F32, rng: np.random.Generator, pool: F32, prob: float, fraction: tuple[float, float],
+                   gap: tuple[float, float]) -> F32:
+    """With probability ``prob`` per cloud, replace a fraction of its points by points of a random cloud of
+    ``pool`` placed against its side (see the module docstring); clouds centred horizontally, z kept."""
+    out = points.copy()
+    b, n, _ = points.shape
+    sel = np.flatnonzero(rng.random(b) < prob)
+    for i in sel:
+        c = pool[int(rng.integers(len(pool)))]
+        centre = out[i, :, :2].mean(axis=0)
+        radius = float(np.linalg.norm(out[i, :, :2] - centre, axis=1).max())
+        a = rng.uniform(0.0, 2 * np.pi)
+        at = centre + np.array([np.cos(a), np.sin(a)]) * radius * rng.uniform(*gap)
+        m = round(n * float(rng.uniform(*fraction)))
+        rows = rng.choice(n, m, replace=False)
+        piece = c[rng.integers(0, len(c), m)].copy()
+        piece[:, :2] += (at - c[:, :2].mean(axis=0)).astype(np.float32)
+        out[i, rows] = piece
+        out[i, :, :2] -= out[i, :, :2].mean(axis=0)
+    return out
+
+
 def augment_batch(points: F32, rng: np.random.Generator, cfg: AugmentConfig, fixed_scale: bool = False,
-                  keep_z: bool = False) -> F32:
+                  keep_z: bool = False, pool: F32 | None = None, attach: npt.NDArray[np.bool_] | None = None) -> F32:
     """All augmentations of ``cfg`` applied to a batch (a new array); ``keep_z``: z is the height above
-    the seabed (never re-centred; shifted by ``z_shift``)."""
+    the seabed (never re-centred; shifted by ``z_shift``). ``pool``: clutter clouds that may be attached to the
+    clouds where ``attach`` is True (``attach_prob``)."""
     out = np.asarray(points, dtype=np.float32)
+    if cfg.attach_prob > 0 and pool is not None and len(pool) and attach is not None and attach.any():
+        out = out.copy()
+        out[attach] = attach_clutter(out[attach], rng, pool, cfg.attach_prob, cfg.attach_fraction, cfg.attach_gap)
     if cfg.cut_prob > 0:
         out = plane_cut(out, rng, cfg.cut_prob, cfg.cut_max, fixed_scale, keep_z)
     if keep_z and cfg.z_shift[1] > cfg.z_shift[0]:
         out = out.copy()
         out[..., 2] -= rng.uniform(*cfg.z_shift, size=(len(out), 1)).astype(np.float32)
+    if keep_z and cfg.tilt_deg > 0:
+        out = random_tilt(out, rng, cfg.tilt_deg)
     if cfg.yaw:
         out = random_yaw(out, rng)
     if cfg.scale[0] != 1.0 or cfg.scale[1] != 1.0:

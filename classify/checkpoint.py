@@ -3,7 +3,9 @@
 
 Keys: ``format``, ``state_dict``, ``model_config`` (:class:`PointNetConfig`), ``class_names``,
 ``n_points`` (points per cloud fed to the network), ``synthesis`` (:class:`SynthesisSettings`),
-``train`` (:class:`TrainConfig`), ``metrics`` (any JSON-like dict).
+``train`` (:class:`TrainConfig`), ``metrics`` (any JSON-like dict), ``calibration`` (settings measured after
+training that inference applies: ``clutter_threshold``, the probability of ``clutter`` from which a cloud is
+called clutter; absent in older checkpoints, which load as before).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ class Checkpoint:
     synthesis: dict[str, Any] = field(default_factory=dict)
     train: dict[str, Any] = field(default_factory=dict)
     metrics: dict[str, Any] = field(default_factory=dict)
+    calibration: dict[str, Any] = field(default_factory=dict)
 
 
 def _plain(x: Any) -> Any:
@@ -45,7 +48,7 @@ def _plain(x: Any) -> Any:
 
 def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_points: int,
                     synthesis: dict[str, Any] | None = None, train: dict[str, Any] | None = None,
-                    metrics: dict[str, Any] | None = None) -> Path:
+                    metrics: dict[str, Any] | None = None, calibration: dict[str, Any] | None = None) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
@@ -53,7 +56,7 @@ def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_p
         torch.save({"format": FORMAT, "state_dict": state, "model_config": _plain(model.cfg.to_dict()),
                     "class_names": list(class_names), "n_points": int(n_points),
                     "synthesis": _plain(synthesis or {}), "train": _plain(train or {}),
-                    "metrics": _plain(metrics or {})}, tmp)
+                    "metrics": _plain(metrics or {}), "calibration": _plain(calibration or {})}, tmp)
     return path
 
 
@@ -74,4 +77,4 @@ def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> Checkpoin
         raise CheckpointError(f"{path}: weights do not match the stored model config: {exc}") from exc
     model.to(device).eval()
     return Checkpoint(model, tuple(d["class_names"]), int(d["n_points"]), d.get("synthesis", {}),
-                      d.get("train", {}), d.get("metrics", {}))
+                      d.get("train", {}), d.get("metrics", {}), d.get("calibration", {}))

@@ -27,6 +27,7 @@ import numpy.typing as npt
 from auvlink.progress import progress_bar
 from auvlink.sim.catalog import CLASSES, mesh_for
 from classify.errors import SynthesisError
+from classify.labels import CLUTTER
 from classify.synthesis import MeshSynthesizer, SynthesisSettings
 
 MeshSource = Callable[[str], tuple[npt.NDArray[Any], npt.NDArray[Any]]]
@@ -95,20 +96,45 @@ def synthesize_class(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArr
     return np.stack(clouds), np.asarray(meta, dtype=np.float64)
 
 
+def _clutter_key(settings: SynthesisSettings, count: int) -> str:
+    """Cache key of the clutter clouds: the settings, the count, and the source of the code that makes them
+    (recon's seabed removal and clustering, the simulator's seabed: a change there gives other clutter)."""
+    import recon
+    from auvlink.sim import seabed
+    from classify import clutter_synth, scan_synth, views
+
+    h = hashlib.sha256(json.dumps({"v": CACHE_VERSION, "class": CLUTTER, "count": count,
+                                   "settings": settings.to_dict()}, sort_keys=True).encode())
+    files = sorted(Path(str(recon.__file__)).parent.glob("*.py"))
+    for f in [*files, *(Path(str(m.__file__)) for m in (seabed, clutter_synth, scan_synth, views))]:
+        h.update(f.read_bytes())
+    return h.hexdigest()[:20]
+
+
 def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: SynthesisSettings,
                    cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
-    """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given)."""
+    """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given); the class
+    ``clutter`` (:data:`classify.labels.CLUTTER`) is ``clutter_clouds`` clouds of seabed patches
+    (:func:`classify.clutter_synth.synthesize_clutter`), not a mesh."""
     pts, labels, meta = [], [], []
     for label, name in enumerate(progress_bar(class_names, enabled=progress, desc="synthesize", leave=False)):
-        vertices, triangles = mesh_for(name)
+        is_clutter = name == CLUTTER
+        vertices, triangles = (np.zeros((0, 3)), np.zeros((0, 3), np.int64)) if is_clutter else mesh_for(name)
         path = None
         if cache_dir is not None:
-            path = Path(cache_dir) / f"{name}-{_cache_key(name, vertices, triangles, settings)}.npz"
+            key = _clutter_key(settings, settings.clutter_clouds) if is_clutter else \
+                _cache_key(name, vertices, triangles, settings)
+            path = Path(cache_dir) / f"{name}-{key}.npz"
         if path is not None and path.is_file():
             with np.load(path) as z:
                 clouds, dirs = z["points"], z["directions"]
         else:
-            clouds, dirs = synthesize_class(name, vertices, triangles, settings)
+            if is_clutter:
+                from classify.clutter_synth import synthesize_clutter
+
+                clouds, dirs = synthesize_clutter(settings, settings.clutter_clouds, progress)
+            else:
+                clouds, dirs = synthesize_class(name, vertices, triangles, settings)
             if path is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")

@@ -9,6 +9,11 @@ object (``seabed_depth``, m, NED; recon fits it: :meth:`recon.pipeline.Reconstru
 the object's height above the seabed is then a feature. Without it, the cloud's deepest point stands
 in for the seabed (objects then look shorter than they are: pass the depth). Batch-norm layers are folded
 into their linear layers once at load time; inference runs under ``torch.inference_mode``.
+
+A model trained with the class ``clutter`` (:data:`classify.labels.CLUTTER`: not an object, what recon makes of a
+rough seabed) names a cloud ``clutter`` when that probability reaches the checkpoint's calibrated
+``clutter_threshold`` (:meth:`Classifier.decide`); otherwise the most probable object class. A checkpoint
+without that class (8 outputs) classifies as before and never says ``clutter``.
 """
 
 from __future__ import annotations
@@ -22,8 +27,9 @@ import torch
 
 from classify.checkpoint import Checkpoint, load_checkpoint
 from classify.errors import InvalidCloudError
+from classify.labels import CLUTTER
+from classify.normalize import normalize_cloud
 from classify.pointnet import default_device
-from classify.synthesis import normalize_cloud
 
 DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "pointnet_default.pt"
 
@@ -64,12 +70,20 @@ class Classifier:
         self.scale_m = float(ckpt.synthesis.get("scale_m", 0.0) or 0.0)
         self.z_ref = str(ckpt.synthesis.get("z_ref", "mean") or "mean")
         self.model = ckpt.model.to(self.device).fused().eval()
+        #: index of ``clutter`` among the outputs (None: a model without it)
+        self.clutter_index = self.class_names.index(CLUTTER) if CLUTTER in self.class_names else None
+        self.clutter_threshold = float(ckpt.calibration.get("clutter_threshold", 0.5))
 
     @classmethod
     def load(cls, path: Path | str | None = None, device: torch.device | None = None) -> Classifier:
         """Load a checkpoint (the shipped default model when ``path`` is None)."""
         device = device or default_device()
         return cls(load_checkpoint(Path(path) if path is not None else DEFAULT_MODEL, device), device)
+
+    @property
+    def object_classes(self) -> tuple[str, ...]:
+        """The object classes the model names (its outputs less ``clutter``): what a scene can place."""
+        return tuple(n for n in self.class_names if n != CLUTTER)
 
     @property
     def needs_seabed(self) -> bool:
@@ -113,15 +127,30 @@ class Classifier:
                 i = j
         return out
 
-    def classify(self, points: npt.ArrayLike, seabed_depth: float | None = None) -> tuple[str, float]:
-        """``(class_name, score)`` of one object's cloud ``(n, 3)`` (world frame, NED m) over a seabed at
-        ``seabed_depth`` (m; None: unknown)."""
-        prob = self.probabilities([points], seabed_depths=[seabed_depth])[0]
-        k = int(np.argmax(prob))
-        return self.class_names[k], float(prob[k])
+    def decide(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True
+               ) -> list[tuple[str, float]]:
+        """``(class_name, score)`` per row of probabilities ``(n, k)``: ``clutter`` with its probability where that
+        reaches :attr:`clutter_threshold` (and ``allow_clutter``, per row or for all), else the most probable
+        object class with its probability."""
+        p = np.asarray(prob, dtype=np.float64).reshape(-1, len(self.class_names))
+        allow = np.broadcast_to(np.asarray(allow_clutter, dtype=bool), (p.shape[0],))
+        obj = p.copy()
+        clutter = np.zeros(p.shape[0], bool)
+        if self.clutter_index is not None:
+            clutter = allow & (p[:, self.clutter_index] >= self.clutter_threshold)
+            obj[:, self.clutter_index] = -1.0
+        ks = np.where(clutter, self.clutter_index if self.clutter_index is not None else 0, obj.argmax(axis=1))
+        return [(self.class_names[int(k)], float(p[i, k])) for i, k in enumerate(ks)]
 
-    def classify_many(self, clouds: Sequence[npt.ArrayLike],
-                      seabed_depths: Sequence[float | None] | None = None) -> list[tuple[str, float]]:
-        prob = self.probabilities(clouds, seabed_depths=seabed_depths)
-        ks = prob.argmax(axis=1)
-        return [(self.class_names[int(k)], float(prob[i, k])) for i, k in enumerate(ks)]
+    def classify(self, points: npt.ArrayLike, seabed_depth: float | None = None,
+                 allow_clutter: bool = True) -> tuple[str, float]:
+        """``(class_name, score)`` of one object's cloud ``(n, 3)`` (world frame, NED m) over a seabed at
+        ``seabed_depth`` (m; None: unknown); ``allow_clutter`` False: an object class whatever the model says."""
+        return self.decide(self.probabilities([points], seabed_depths=[seabed_depth]), allow_clutter)[0]
+
+    def classify_many(self, clouds: Sequence[npt.ArrayLike], seabed_depths: Sequence[float | None] | None = None,
+                      allow_clutter: bool | Sequence[bool] = True) -> list[tuple[str, float]]:
+        """:meth:`classify` for several clouds (``allow_clutter``: for all, or one flag per cloud)."""
+        if not len(clouds):
+            return []
+        return self.decide(self.probabilities(clouds, seabed_depths=seabed_depths), allow_clutter)

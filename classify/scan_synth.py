@@ -53,6 +53,7 @@ from recon.front_slope import replace_on_arcs
 F64 = npt.NDArray[np.float64]
 HALF_FOV_DEG = 14.5
 N_BEAMS = 96
+DENSE_MAX = 20_000_000  # energy_first_return: (cells x bins) above this, the sparse search
 
 
 def sonar_rays(heading_rad: float, tilt_rad: float, spread_rad: float, k: int) -> tuple[F64, F64]:
@@ -93,28 +94,76 @@ def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], thre
     """
     p_n, k, n_beams = t_hit.shape
     out = np.full((p_n, n_beams), np.inf)
-    pi, bi = np.nonzero(hit.any(axis=1))  # only the (position, beam) cells a ray of the object reaches
+    pi, bi, ki = np.nonzero(hit.transpose(0, 2, 1))  # ordered by cell (position, beam)
     if pi.size == 0:
         return out
-    h = hit[pi, :, bi]  # (C, K)
-    t = np.where(h, t_hit[pi, :, bi], r0)
-    e = np.where(h, cos_a[pi, :, bi] ** 2 * (r0 / t) ** 2 / k, 0.0)
-    b = np.where(h, np.floor(t / bin_m), -10.0)
-    diff = b[:, None, :] - b[:, :, None]  # [c, i, j] = b_j - b_i
-    ok = h.copy()
-    for d in range(max(1, min_run)):  # bins b_i .. b_i + min_run - 1 each hold enough energy
-        ok &= (np.where(diff == d, e[:, None, :], 0.0).sum(axis=2) >= threshold)
-    out[pi, bi] = np.where(ok, b * bin_m + 0.5 * bin_m, np.inf).min(axis=1)
+    t = t_hit[pi, ki, bi]
+    e = cos_a[pi, ki, bi] ** 2 * (r0 / t) ** 2 / k
+    b = np.floor(t / bin_m).astype(np.int64)
+    cell = pi * n_beams + bi
+    starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
+    ci = np.cumsum(np.r_[False, cell[1:] != cell[:-1]])  # index of each ray's cell among the cells hit
+    b0 = np.minimum.reduceat(b, starts)
+    off = b - b0[ci]
+    run = max(1, min_run)
+    width = int(off.max()) + run
+    if starts.size * width > DENSE_MAX:  # rays spread over a long range: bins of the sparse (cell, bin) keys
+        return _first_run_sparse(out, cell, b, e, threshold, bin_m, run)
+    enough = np.bincount(ci * width + off, weights=e, minlength=starts.size * width).reshape(-1, width) >= threshold
+    ok = enough.copy()
+    for d in range(1, run):  # bins b .. b + min_run - 1 each hold enough
+        ok[:, : width - d] &= enough[:, d:]
+    ok[:, width - run + 1:] = False
+    found = ok.any(axis=1)
+    first = b0[found] + np.argmax(ok[found], axis=1)
+    out.reshape(-1)[cell[starts[found]]] = first * bin_m + 0.5 * bin_m
     return out
 
 
+def _first_run_sparse(out: F64, cell: npt.NDArray[np.int64], b: npt.NDArray[np.int64], e: F64, threshold: float,
+                      bin_m: float, run: int) -> F64:
+    """:func:`energy_first_return` over the sorted unique (cell, bin) keys (memory by rays, not by bins)."""
+    lo = int(b.min())
+    b = b - lo
+    nb = int(b.max()) + run + 1  # a run never reaches the next cell's keys
+    keys, inv = np.unique(cell * nb + b, return_inverse=True)
+    good = keys[np.bincount(inv.ravel(), weights=e) >= threshold]
+    ok = np.ones(good.size, bool)
+    for d in range(1, run):
+        ok &= np.isin(good + d, good, assume_unique=True)
+    start = good[ok]
+    if start.size:
+        cells, first = np.unique(start // nb, return_index=True)  # sorted keys: a cell's first run comes first
+        out.reshape(-1)[cells] = (start[first] % nb + lo) * bin_m + 0.5 * bin_m
+    return out
+
+
+def partial_pass(xs: F64, lateral: float, alt: float, elevation: float, radius: float, rng: np.random.Generator
+                 ) -> tuple[F64, float]:
+    """A pass that sees only part of an object (of horizontal radius ``radius`` m): half of the time the
+    object lies at the edge of the swath (the lateral offset is the fan's half width at the seabed onset, give
+    or take half the radius: part of the object is outside every beam), else the line ends or starts while
+    the steepest ray is over the object (``xs``, the positions along the pass, cut where the onset, ``alt /
+    tan(elevation)`` ahead, crosses a random point of the middle of the object)."""
+    if rng.random() < 0.5:
+        half = alt / math.sin(elevation) * math.sin(math.radians(HALF_FOV_DEG))
+        side = 1.0 if rng.random() < 0.5 else -1.0
+        return xs, side * (half + float(rng.uniform(-0.5, 0.3)) * radius)
+    cut = float(rng.uniform(-0.5, 0.5)) * radius - alt / math.tan(elevation)
+    keep = xs < cut if rng.random() < 0.5 else xs >= cut
+    return xs[keep], lateral
+
+
 def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, settings: SynthesisSettings,
-                rng: np.random.Generator) -> F64:
-    """Highlight-extension points (metres, object frame NED, seabed at ``z = 0``) of one pass."""
+                rng: np.random.Generator, *, altitude: float | None = None, partial: bool = False) -> F64:
+    """Highlight-extension points (metres, object frame NED, seabed at ``z = 0``) of one pass.
+
+    ``altitude`` (m): that of the pass (None: drawn from ``settings.altitude_m``). ``partial``: the pass sees
+    only part of the object (:func:`partial_pass`)."""
     import open3d as o3d  # lazy: Open3D loads only when clouds are synthesized (not for inference)
 
     spread = math.radians(settings.spread_deg)
-    alt = float(rng.uniform(*settings.altitude_m))
+    alt = float(rng.uniform(*settings.altitude_m)) if altitude is None else float(altitude)
     lateral = float(rng.uniform(*settings.lateral_m))
     c_min = float(rng.uniform(*settings.min_cos))
     min_h = float(rng.uniform(*settings.min_height_m))
@@ -127,6 +176,10 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
     # from where the steepest ray meets the seabed a little beyond the object, to past the object
     xs = np.arange(-(alt / math.tan(e) + radius + 1.0), radius + 0.5, settings.step_m)
     xs = xs + rng.uniform(0.0, settings.step_m)
+    if partial:
+        xs, lateral = partial_pass(xs, lateral, alt, e, radius, rng)
+        if xs.size == 0:
+            return np.zeros((0, 3))
     origins = xs[:, None] * u + lateral * w + np.array([0.0, 0.0, -alt])
     n_pos, k = len(xs), d.shape[0]
     rays = np.empty((n_pos, k, N_BEAMS, 6), dtype=np.float32)

@@ -54,11 +54,13 @@ import numpy as np
 import numpy.typing as npt
 
 from classify.errors import SynthesisError
-from classify.scan_synth import scan_points
+from classify.normalize import normalize_cloud, normalize_unit_sphere
 from classify.synthesis_settings import SynthesisSettings
+from classify.views import scan_view, training_cloud
 
 F64 = npt.NDArray[np.float64]
 F32 = npt.NDArray[np.float32]
+__all__ = ["MeshSynthesizer", "SynthesisSettings", "normalize_cloud", "normalize_unit_sphere"]
 
 
 def scan_direction(heading_rad: float, tilt_rad: float, spread_rad: float) -> F64:
@@ -146,31 +148,6 @@ def front_slope(points: F64, heading_rad: float, elevation_rad: float, altitude:
     return points - delta[:, None] * u_dir
 
 
-def normalize_cloud(points: F64 | F32, scale_m: float = 0.0, z_ref: str = "mean", seabed_z: float = 0.0) -> F64:
-    """Unit sphere (``scale_m <= 0``), else centred on the mean and divided by ``scale_m`` metres.
-
-    ``z_ref = "seabed"`` (with ``scale_m > 0``): centred on the mean horizontally only; z becomes
-    ``(z - seabed_z) / scale_m``, the (NED, so negative) height above a seabed at depth ``seabed_z``.
-    """
-    if scale_m <= 0:
-        return normalize_unit_sphere(points)
-    p = np.asarray(points, dtype=np.float64)
-    if z_ref == "seabed":
-        c = np.array([*p[:, :2].mean(axis=0), seabed_z]) if len(p) else np.array([0.0, 0.0, seabed_z])
-        return (p - c) / scale_m
-    if z_ref != "mean":
-        raise SynthesisError(f"z_ref must be 'mean' or 'seabed', not {z_ref!r}")
-    return (p - p.mean(axis=0)) / scale_m
-
-
-def normalize_unit_sphere(points: F64 | F32) -> F64:
-    """Centre on the mean and divide by the largest norm (a single point maps to the origin)."""
-    p = np.asarray(points, dtype=np.float64)
-    p = p - p.mean(axis=0)
-    r = float(np.linalg.norm(p, axis=1).max()) if len(p) else 0.0
-    return p / r if r > 0 else p
-
-
 class MeshSynthesizer:
     """Synthesizes views of one mesh (vertices ``(N,3)``, triangles ``(M,3)``; object frame, NED)."""
 
@@ -216,13 +193,14 @@ class MeshSynthesizer:
              rng: np.random.Generator) -> tuple[F32, npt.NDArray[np.bool_]]:
         """One training cloud ``(n_points, 3)`` float32 in the unit sphere, and its noise mask.
 
-        Mode ``scan``: a pass whose highlight extension gave fewer than 8 points is drawn again (up
-        to 20 times; altitude, lateral offset and thresholds are drawn per pass); noise points are a
-        fraction of the surface points found (a sparse cloud keeps its duplicates)."""
+        Mode ``scan``: a view (:func:`classify.views.scan_view`: one pass, or fused passes, whole or partial)
+        whose highlight extension gave fewer than 8 points is drawn again (up to 20 times; altitude, lateral
+        offset and thresholds are drawn per pass); noise points are a fraction of the surface points found (a
+        sparse cloud keeps its duplicates)."""
         n = settings.n_points
         if settings.mode == "scan":
             for _ in range(20):
-                surf = scan_points(self.scene, self.vertices, heading_rad, tilt_rad, settings, rng)
+                surf = scan_view(self.scene, self.vertices, heading_rad, tilt_rad, settings, rng)
                 if len(surf) >= 8:
                     break
             else:
@@ -233,14 +211,4 @@ class MeshSynthesizer:
             n_found = n
         if len(surf) == 0:
             raise SynthesisError("no surface is visible from this scan direction")
-        frac = float(rng.uniform(*settings.noise_fraction))
-        n_noise = min(round(frac * n_found), n - 1)
-        n_surf = n - n_noise
-        pick = rng.choice(len(surf), size=n_surf, replace=len(surf) < n_surf)
-        surf = surf[pick]
-        std = surf.std(axis=0) * settings.noise_scale
-        noise = surf.mean(axis=0) + rng.standard_normal((n_noise, 3)) * std
-        cloud = np.concatenate([surf, noise])
-        is_noise = np.r_[np.zeros(n_surf, bool), np.ones(n_noise, bool)]
-        perm = rng.permutation(n)
-        return normalize_cloud(cloud[perm], settings.scale_m, settings.z_ref).astype(np.float32), is_noise[perm]
+        return training_cloud(surf, settings, rng, n_found)

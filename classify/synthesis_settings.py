@@ -61,6 +61,28 @@ class SynthesisSettings:
     # "mean": centred on the mean in 3D; "seabed" (needs scale_m > 0): centred horizontally only, z kept as
     # the height above the local seabed (the object's height is a feature; recon knows the seabed)
     z_ref: str = "mean"
+    # mode "scan", fused and partial views (classify.views): a view is the union of 2-3 passes (their count
+    # drawn from fused_passes) with probability fused_prob, each later pass shifted by misalign_m (m, random
+    # direction: dead reckoning between lines); a pass sees only part of the object with probability partial_prob
+    fused_prob: float = 0.0
+    fused_passes: tuple[float, float] = (2.0, 3.0)
+    misalign_m: tuple[float, float] = (0.0, 0.3)
+    partial_prob: float = 0.0
+    # clutter (classify.clutter_synth): clutter_clouds > 0 adds the class "clutter", that many clouds of what recon
+    # makes of rough seabed patches with no object
+    clutter_clouds: int = 0
+    clutter_roughness_m: tuple[float, float] = (0.03, 0.10)  # m rms
+    clutter_slope_deg: tuple[float, float] = (0.0, 10.0)
+    clutter_altitude_m: tuple[float, float] = (3.0, 7.0)
+    clutter_spacing: tuple[float, float] = (0.4, 0.8)  # line spacing, fraction of the swath at the onset
+    clutter_step_m: tuple[float, float] = (0.04, 0.3)  # m flown between frames (speed / fps)
+    clutter_lines: tuple[float, float] = (2.0, 3.0)  # lines per patch
+    clutter_line_m: float = 16.0  # m
+    # recon's threshold on the seabed's returns, in the units of energy_threshold (rendered frames over rough seabeds,
+    # alone: counts of highlight and seabed returns as recon finds them at about 0.002)
+    clutter_energy_threshold: tuple[float, float] = (0.0015, 0.003)
+    clutter_rays_per_beam: int = 32  # rays per beam over the seabed (the simulator's default)
+    clutter_poll_m: float = 1.0  # m flown between recon's polls (its seabed fit sees what came before)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -23,6 +23,7 @@ from torch import nn
 from auvlink.progress import progress_bar
 from classify.augment import AugmentConfig, augment_batch, normalize_batch
 from classify.dataset import CloudSet, stratified_split
+from classify.labels import CLUTTER
 from classify.pointnet import PointNet, PointNetConfig, default_device, orthogonality_loss
 
 
@@ -121,6 +122,11 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
     va_pts = normalize_batch(subsample(data.points[va_idx], cfg.n_points, np.random.default_rng(cfg.seed + 1)),
                              fixed, keep_z)
     va_lab = data.labels[va_idx]
+    # clutter clouds of the training split: attached to object clouds by the augmentation (attach_prob)
+    clutter_label = data.class_names.index(CLUTTER) if CLUTTER in data.class_names else -1
+    pool_idx = tr_idx[data.labels[tr_idx] == clutter_label]
+    pool = normalize_batch(subsample(data.points[pool_idx], cfg.n_points, np.random.default_rng(cfg.seed + 2)),
+                           fixed, keep_z) if pool_idx.size else None
     history: list[dict[str, float]] = []
     best: tuple[float, float] = (-1.0, float("inf"))
     best_state, best_epoch, since_best = copy.deepcopy(model.state_dict()), 0, 0
@@ -135,7 +141,7 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
             if len(batch) < 2:  # batch norm needs two samples
                 continue
             pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng), fixed, keep_z)
-            pts = augment_batch(pts, rng, cfg.augment, fixed, keep_z)
+            pts = augment_batch(pts, rng, cfg.augment, fixed, keep_z, pool, data.labels[batch] != clutter_label)
             x = torch.from_numpy(pts).to(device)
             y = torch.from_numpy(data.labels[batch]).to(device)
             logits, trans = model(x)

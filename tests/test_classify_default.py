@@ -1,5 +1,5 @@
-"""The shipped default model: size, metadata, accuracy on synthesized and on reconstructed clouds;
-a reduced-budget retrain reproduces it."""
+"""The shipped default model: size, metadata, accuracy on synthesized and on reconstructed clouds, clutter
+named clutter and objects not; a reduced-budget retrain reproduces it."""
 
 from __future__ import annotations
 
@@ -13,8 +13,10 @@ import torch
 
 from auvlink.evaluation.recon_eval import PassSettings, reconstruct_pass
 from classify.checkpoint import load_checkpoint
+from classify.clutter_synth import synthesize_clutter
 from classify.errors import SynthesisError
 from classify.infer import DEFAULT_MODEL, Classifier
+from classify.labels import CLUTTER, with_clutter
 from classify.synthesis import MeshSynthesizer, SynthesisSettings
 
 torch.set_num_threads(1)
@@ -23,8 +25,9 @@ catalog = pytest.importorskip("auvlink.sim.catalog")
 #: a `--quick` retrain (half the headings, one pass per direction, 12 epochs: about 45 s here) must reach
 #: the shipped model's held-out accuracy minus this (measured: 0.780 against 0.953)
 QUICK_TOLERANCE = 0.25
-#: accuracy on the held-out views synthesized by the test (measured 0.984), with a margin
-HELDOUT_FLOOR = 0.90
+#: accuracy on the held-out views synthesized by the test (single, fused and partial views as in training:
+#: measured 0.873, 55 of 63), with a margin
+HELDOUT_FLOOR = 0.80
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +40,10 @@ def shipped() -> Classifier:
 def test_shipped_model_small_and_complete(shipped: Classifier) -> None:
     assert DEFAULT_MODEL.stat().st_size <= 15e6
     ck = load_checkpoint(DEFAULT_MODEL)
-    assert ck.class_names == tuple(catalog.CLASSES)
+    assert ck.class_names == with_clutter(catalog.CLASSES, True) and shipped.clutter_index == 8
+    assert 0.3 <= ck.calibration["clutter_threshold"] <= 0.95
+    assert shipped.clutter_threshold == ck.calibration["clutter_threshold"]  # inference applies the calibration
+    assert ck.synthesis["fused_prob"] > 0 and ck.synthesis["partial_prob"] > 0 and ck.synthesis["clutter_clouds"] > 0
     assert ck.synthesis["mode"] == "scan" and ck.synthesis["correction"] == "arc"
     assert ck.synthesis["detect"] == "energy" and ck.synthesis["z_ref"] == "seabed" and shipped.needs_seabed
     assert len(ck.synthesis["headings_deg"]) == 18 and len(ck.synthesis["tilts_deg"]) == 4
@@ -47,12 +53,15 @@ def test_shipped_model_small_and_complete(shipped: Classifier) -> None:
 
 def test_shipped_model_accuracy_on_heldout_views(shipped: Classifier) -> None:
     """A held-out set synthesized here: 8 random views per class (headings 0-360 deg, tilts 20-45 deg, a
-    seed the training never used) through the shipped model. Measured: 63 of 64 right (0.984; a reef_a
-    named reef_b), 10 s; the training's own held-out figure is 0.953. Every class must be named right
-    most of the time, so a swapped pair of class names fails even where the overall figure would not."""
+    seed the training never used; single, fused and partial views as in training) through the shipped model.
+    Measured: 55 of 63 right (0.873), 3 called clutter, 5 s; the training's own held-out figure is 0.857 (with
+    the clutter class); the weakest class is pipe, 4 of 8 (a partial view of a pipe's end looks like a
+    hemisphere or a box). Every class must be named right at least half of the time, so a swapped pair of class
+    names fails even where the overall figure would not; few objects may be called clutter."""
     settings = replace(SynthesisSettings.from_dict(shipped.checkpoint.synthesis), seed=777)
     rng = np.random.default_rng(777)
     right: dict[str, list[bool]] = {}
+    clutter = 0
     for name in catalog.CLASSES:
         synth = MeshSynthesizer(*catalog.mesh_for(name))
         for heading, tilt in zip(rng.uniform(0, 360, 8), rng.uniform(20, 45, 8), strict=True):
@@ -62,12 +71,25 @@ def test_shipped_model_accuracy_on_heldout_views(shipped: Classifier) -> None:
                 continue
             label, _ = shipped.classify(cloud.astype(np.float64) * settings.scale_m + [100.0, 50.0, 30.0], 30.0)
             right.setdefault(name, []).append(label == name)
+            clutter += label == CLUTTER
     n = sum(len(v) for v in right.values())
     accuracy = sum(sum(v) for v in right.values()) / n
     recall = {name: sum(v) / len(v) for name, v in right.items()}
     assert n >= 60 and set(right) == set(catalog.CLASSES), right
     assert accuracy >= HELDOUT_FLOOR, (accuracy, recall)
-    assert min(recall.values()) >= 0.6, recall
+    assert min(recall.values()) >= 0.5, recall
+    assert clutter <= 6, clutter
+
+
+def test_shipped_model_names_clutter(shipped: Classifier) -> None:
+    """Clutter clouds of seabed patches the training never drew (another seed): what recon leaves of a rough
+    seabed, through the shipped model in the world frame. Measured: 9 of 12 called clutter (seed 4242; 10 of 12
+    with seed 4243), the others half_pipe; about 2 s."""
+    settings = replace(SynthesisSettings.from_dict(shipped.checkpoint.synthesis), seed=4242)
+    clouds, _ = synthesize_clutter(settings, 12)
+    labels = [shipped.classify(c.astype(np.float64) * settings.scale_m + [200.0, -30.0, 40.0], 40.0)[0]
+              for c in clouds]
+    assert sum(label == CLUTTER for label in labels) >= 7, labels
 
 
 def test_shipped_model_names_unseen_views(shipped: Classifier) -> None:
@@ -117,8 +139,10 @@ def test_eval_cli_writes_report(shipped: Classifier, tmp_path: Path) -> None:
     out = tmp_path / "eval"
     assert main(["eval", "--quick", "--out", str(out), "--cache", str(tmp_path / "cache")]) == 0
     report = json.loads((out / "eval.json").read_text())
-    # 8 classes x 6 headings x 2 tilts, less the views from which a low half pipe gives no highlight at all
-    assert 8 * 6 * 2 - 6 <= report["n"] <= 8 * 6 * 2 and report["class_names"] == list(catalog.CLASSES)
+    # 8 classes x 6 headings x 2 tilts, less the views from which a low half pipe gives no highlight at all,
+    # and 9 clutter clouds (200 for 270 views per class in the held-out set, 12 views per class here)
+    assert 8 * 6 * 2 - 6 + 9 <= report["n"] <= 8 * 6 * 2 + 9
+    assert report["class_names"] == [*catalog.CLASSES, CLUTTER]
     assert set(report["lookalike_pairs"]) == {"sphere/hemisphere", "pipe/half_pipe"}
     assert report["macro"]["recall"] >= 0.7  # measured 0.78
     assert (out / "confusion.png").read_bytes()[:4] == b"\x89PNG"

@@ -12,6 +12,7 @@ import pytest
 from classify.errors import SynthesisError
 from classify.scan_synth import N_BEAMS, scan_points, sonar_rays
 from classify.synthesis import MeshSynthesizer, SynthesisSettings
+from classify.views import scan_view
 
 H = 0.6  # box height
 SETTINGS = SynthesisSettings(mode="scan", altitude_m=(4.5, 4.5), lateral_m=(0.0, 0.0), min_cos=(0.0, 0.0),
@@ -131,3 +132,32 @@ def test_energy_detection_lowers_rounded_tops_more_at_low_tilt() -> None:
     assert h[22.0] < h[40.0] - 0.05 and 0.6 < h[22.0] < 0.95 and h[40.0] <= 1.01
     box = scan_points(_box().scene, _box().vertices, 0.0, math.radians(30.0), s, np.random.default_rng(3))
     assert 0.35 < float(np.percentile(-box[:, 2], 95)) <= H + 0.01  # 0.44: recon's lids of the box, 0.43-0.53
+
+
+def test_fused_and_partial_views() -> None:
+    """A fused view is the union of 2-3 passes (an adjacent line looks from the other side: the far side shows),
+    shifted by the misalignment drawn; a partial pass sees less of a long object than a whole one."""
+    synth = _box()
+    tilt = math.radians(30.0)
+    fused = replace(SETTINGS, fused_prob=1.0, fused_passes=(2.0, 2.0), misalign_m=(0.0, 0.0))
+    far_side = 0
+    for seed in range(8):
+        single = scan_view(synth.scene, synth.vertices, 0.0, tilt, SETTINGS, np.random.default_rng(seed))
+        both = scan_view(synth.scene, synth.vertices, 0.0, tilt, fused, np.random.default_rng(seed))
+        assert len(both) > len(single) and single[:, 0].max() < 0.62
+        far_side += both[:, 0].max() > 0.62  # the north face, seen from a pass heading south
+    assert far_side >= 3  # 7 in 10 later passes fly the adjacent line back (measured 7 of 8)
+    shifted = scan_view(synth.scene, synth.vertices, 0.0, tilt, replace(fused, misalign_m=(2.0, 2.0)),
+                        np.random.default_rng(0))
+    assert np.ptp(shifted[:, :2], axis=0).max() > 2.5  # two box views 2 m apart
+    m = o3d.geometry.TriangleMesh.create_box(3.0, 0.6, 0.6)  # a pipe-like 3 m bar along north
+    bar = MeshSynthesizer(np.asarray(m.vertices) - [1.5, 0.3, 0.6], np.asarray(m.triangles))
+    whole, part = [], []
+    for seed in range(8):
+        whole.append(np.ptp(scan_view(bar.scene, bar.vertices, math.pi / 2, tilt, SETTINGS,
+                                      np.random.default_rng(seed))[:, 0]))
+        p = scan_view(bar.scene, bar.vertices, math.pi / 2, tilt, replace(SETTINGS, partial_prob=1.0),
+                      np.random.default_rng(seed))
+        part.append(np.ptp(p[:, 0]) if len(p) else 0.0)
+    # measured: whole views 2.98-3.00 m along the bar, partial ones 1.0-3.0 m (median 2.1)
+    assert np.median(whole) > 2.8 and np.median(part) < 0.8 * np.median(whole), (whole, part)

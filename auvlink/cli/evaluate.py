@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     extra: dict[str, object] = {}
     if args.recon:
-        clouds = reconstruct_set(clf.class_names, standard_passes(args.quick), progress=True, cache_dir=cache)
+        clouds = reconstruct_set(clf.object_classes, standard_passes(args.quick), progress=True, cache_dir=cache)
         report, missed = evaluate_recon(clf, clouds)
         extra = {"source": "recon clouds of simulated passes", "passes": len(clouds), "not_detected": missed}
         title = f"recon clouds (n={report.n}, {missed} passes without a detection)"
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     print(report.text())
     print(f"written: {args.out / 'eval.json'}, {png}")
     if args.baseline2d:
-        _baseline(args, clf.class_names, cache, report)
+        _baseline(args, clf.object_classes, cache, report)
     return 0
 
 

@@ -184,7 +184,7 @@ def recon_metrics(cache_dir: Path | None = None, progress: bool = False) -> Call
 
     def run(clf: Classifier) -> dict[str, Any]:
         passes = standard_passes()
-        clouds = reconstruct_set(clf.class_names, passes, progress, cache_dir)
+        clouds = reconstruct_set(clf.object_classes, passes, progress, cache_dir)
         rep, missed = evaluate_recon(clf, clouds)
         return {"passes": asdict(passes), "n_passes": len(clouds), "not_detected": missed, **rep.to_dict()}
 

@@ -12,7 +12,11 @@ time of the sample being read), in ``(receive time, arrival)`` order:
    and the settings only, never on when they arrived; frames before the navigation starts or more
    than ``max_extrapolation_s`` past it are skipped and counted;
 3. every ``poll_s`` of mission time the streaming clusterer finalizes the objects the vehicle is
-   past; each is classified at once and handed to ``on_detection``;
+   past; each is classified at once and handed to ``on_detection``, unless the classifier calls it
+   ``clutter`` (not an object: seabed texture that survived the seabed removal; a model with that
+   output, :mod:`classify.labels`): then it is counted (``rejected_clutter`` in the stats), not reported.
+   A later pass fused into a rejected one (same id) is classified afresh and reported if it is an
+   object now; an object once reported stays one (its updates get the best object class);
 4. GNSS fixes and depth go to :class:`auvlink.pipeline.georef.Georef`: dead reckoning runs in its own
    frame D (origin: the first navigation sample); a detection is handed on in W with the start anchor
    (the pre-dive fixes), and :meth:`Engine.finish` moves every detection and the track by the drift
@@ -43,6 +47,7 @@ from auvlink.pipeline.nav_inputs import Event, NavAdaptor, SonarPayload
 from auvlink.pipeline.results import Detection, Poses, StripFrame
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from auvlink.records import Sample
+from classify.labels import CLUTTER
 from recon.cluster import ClusterConfig, DetectedObject, dbscan_labels
 from recon.highlight import HighlightConfig
 from recon.nav import pressure_to_depth
@@ -128,6 +133,7 @@ class Engine:
         self._on_frames = on_frames
         self._buf: list[Event] = []
         self._det_index: dict[int, int] = {}  # detection id -> its place in self.detections
+        self._clutter: set[int] = set()  # ids of the clusters the classifier called clutter (not reported)
         self._frames: list[tuple[int, SonarPayload]] = []
         self._ring: deque[tuple[float, npt.NDArray[np.uint8]]] = deque(maxlen=ring_frames)
         self._strip_max = strip_frames
@@ -282,10 +288,15 @@ class Engine:
             assert self._classifier is not None
             # recon fitted the seabed once for the poll that made these objects, and each carries its depth
             labels = self._classifier.classify_many([o.points for o in objects],
-                                                    [float(o.seabed_depth) for o in objects])
+                                                    [float(o.seabed_depth) for o in objects],
+                                                    allow_clutter=[int(o.id) not in self._det_index for o in objects])
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
         for o, (c, s) in zip(objects, labels, strict=True):
+            if c == CLUTTER:  # not an object: counted, not reported (a later pass may make it one)
+                self._clutter.add(int(o.id))
+                continue
+            self._clutter.discard(int(o.id))
             shift = self.georef.shift(0.5 * (float(o.t_first) + float(o.t_last)), corrected=False)[0]
             centre = np.asarray(o.centroid, dtype=np.float64) + shift
             det = Detection(id=int(o.id), class_name=c, score=float(s),
@@ -347,7 +358,9 @@ class Engine:
         return {**self.counts, "nav_samples": dict(self.nav.samples), "nav_late_samples": self.nav.late,
                 "frames_with_points": rec.frames_with_points if rec else 0, "points": rec.points_total if rec else 0,
                 "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections),
-                "rejected_not_objects": dict(getattr(rec, "rejected", {})) if rec else {}}
+                "rejected_clutter": len(self._clutter),
+                "rejected_not_objects": {**(dict(getattr(rec, "rejected", {})) if rec else {}),
+                                         "clutter": len(self._clutter)}}
 
     def track(self, step: int = 5) -> np.ndarray:
         """Vehicle positions in W (corrected for drift once the mission is finished)."""

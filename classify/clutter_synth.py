@@ -1,0 +1,298 @@
+"""Clutter: what recon makes of a rough seabed with no object on it (the classifier's "not an object").
+
+On a rough seabed (the simulator's model, :class:`auvlink.sim.seabed.SeabedSurface`: a sum of sinusoids of
+0.5-8 m wavelength) a crest that faces the sonar returns before the seabed onset the fitted planes predict,
+and some of those highlight-extension returns stand higher above recon's textured seabed than its threshold:
+they become clusters, which the classifier must call ``clutter``. They are synthesized the way
+:mod:`classify.scan_synth` synthesizes object clouds, from the geometry alone (no sonar image is rendered):
+
+* **Patch and survey** (every value drawn per patch from :class:`classify.synthesis_settings.SynthesisSettings`):
+  a seabed of roughness ``clutter_roughness_m`` (m rms) and slope ``clutter_slope_deg`` (any azimuth), no
+  object; 2-3 lawnmower lines (``clutter_lines``, alternate directions, any heading) ``clutter_line_m`` long,
+  spaced ``clutter_spacing`` times the swath at the onset, at an altitude ``clutter_altitude_m`` above the
+  mean plane, a tilt between the smallest and the largest of ``tilts_deg``, one frame every ``clutter_step_m``
+  metres. Each line is shifted by a misalignment of ``misalign_m`` metres in a random direction (what dead
+  reckoning leaves between lines).
+* **Returns per frame and beam** (:func:`line_returns`): every ray of the fan (``rays_per_beam`` per beam) is
+  intersected with the seabed; its return is that of :func:`classify.scan_synth.energy_first_return` (the
+  simulator's ``cos^2 / r^2``, speckle ``cos_jitter``, recon's threshold ``energy_threshold`` and run length
+  ``min_run``), times the seabed's reflection relative to the steel objects' (sand / steel,
+  :data:`auvlink.sim.catalog.MATERIALS`). A first return closer than the steepest ray's onset on the mean plane
+  less ``onset_margin_m`` is a highlight-extension point, placed on the steepest ray (range lag
+  ``range_bias_m``, jitter ``range_sigma_m``); the first return in the band after the onset is a seabed
+  return (recon's ``returns_between``), and the seabed under the vehicle a DVL bottom point.
+* **Recon's own code** (:func:`recon_clusters`) with its default settings (:class:`recon.pipeline.ReconConfig`):
+  the seabed samples fill :class:`recon.seabed_texture.SeabedCells` as in
+  :meth:`recon.pipeline.Reconstructor.add_frames`; every ``poll_m`` metres of a line (a poll), the points of
+  that stretch are filtered by :func:`recon.poll_seabed.object_points` against the tiled planes
+  (:meth:`recon.seabed.SeabedModel.fit`) and :func:`recon.seabed_texture.fit_textured` fitted from what was
+  seen so far; the points kept are clustered by :func:`recon.cluster.cluster` per line (the cloud of a first
+  emission) and over all lines (the fused cloud), clusters :func:`recon.poll_seabed.on_seabed` calls too wide
+  or too low are dropped, and the front-slope correction (:func:`recon.front_slope.replace_on_arcs`, blended
+  by ``correction_blend``) is applied as the pipeline does.
+
+Each remaining cluster is one clutter cloud, with the seabed depth recon gives it (the median of the tiled
+planes under its points). Every draw comes from the generator passed in.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from auvlink.progress import progress_bar
+from auvlink.sim.catalog import MATERIALS
+from auvlink.sim.scene import Seabed
+from auvlink.sim.seabed import SeabedSurface
+from classify.errors import SynthesisError
+from classify.labels import CLUTTER
+from classify.scan_synth import HALF_FOV_DEG, arc_vectors, energy_first_return, sonar_rays
+from classify.synthesis_settings import SynthesisSettings
+from classify.views import training_cloud
+from recon.cluster import DetectedObject, cluster
+from recon.errors import ReconError
+from recon.front_slope import replace_on_arcs
+from recon.pipeline import ReconConfig
+from recon.poll_seabed import object_points, on_seabed
+from recon.seabed import SeabedModel
+from recon.seabed_texture import SeabedCells, TexturedSeabed, fit_textured
+
+F64 = npt.NDArray[np.float64]
+_CHUNK = 64  # positions per energy evaluation
+MAX_PATCHES_PER_CLOUD = 20  # patches drawn per clutter cloud asked before giving up
+
+
+#: the seabed's return relative to the steel the object synthesis is calibrated on (sand / steel, ~0.36)
+SEABED_REFLECTION = (MATERIALS["sand"].weight * MATERIALS["sand"].reflection
+                     / (MATERIALS["steel"].weight * MATERIALS["steel"].reflection))
+
+
+@dataclass
+class LineReturns:
+    """What one line gives recon, world NED m: highlight points (with their arcs and times), seabed samples."""
+
+    points: F64  # (n, 3) highlight-extension points on the steepest ray
+    arcs: F64  # (n, 10) their range arcs (origin, u, w, range), as recon.front_slope.arc_columns
+    times: F64  # (n,) s
+    frame: npt.NDArray[np.int64]  # (n,) position index along the line
+    dvl: F64  # (P, 3) the DVL's bottom point under the vehicle, one per frame (texture grid and planes)
+    texture: F64  # (m, 3) seabed returns of every 2nd beam (the texture grid's samples)
+    sparse: F64  # (k, 3) seabed returns of every 5th frame, every 4th beam (the tiled planes' samples)
+    texture_frame: npt.NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    sparse_frame: npt.NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+
+    def shift(self, offset: F64) -> None:
+        """Move everything by ``offset`` (3,) m: the line's navigation error."""
+        for a in (self.points, self.arcs[:, :3], self.dvl, self.texture, self.sparse):
+            a += offset
+
+
+def _plane_ranges(seabed: SeabedSurface, origins: F64, d: F64) -> F64:
+    """Ranges (P, beams) along unit directions ``d`` (beams, 3) from ``origins`` (P, 3) to the mean plane."""
+    g = seabed.grad_plane
+    gap = seabed.plane_depth(origins[:, 0], origins[:, 1]) - origins[:, 2]
+    denom = d[:, 2] - d[:, :2] @ g
+    with np.errstate(divide="ignore"):
+        return np.where(denom[None] > 1e-9, gap[:, None] / denom[None], np.inf)
+
+
+def line_returns(seabed: SeabedSurface, origins: F64, heading: float, tilt: float, settings: SynthesisSettings,
+                 rng: np.random.Generator, t0: float, dt: float, threshold: float) -> LineReturns:
+    """Returns of one straight level line over ``seabed`` (sonar at ``origins`` (P, 3), NED m); see the module doc."""
+    spread = math.radians(settings.spread_deg)
+    k = settings.clutter_rays_per_beam
+    d, steep = sonar_rays(heading, tilt, spread, k)  # (k, beams, 3), (beams, 3)
+    n_beams = steep.shape[0]
+    d_soa = np.ascontiguousarray(d.reshape(-1, 3).T)
+    onset = _plane_ranges(seabed, origins, steep)  # (P, beams): the steepest ray's onset on the mean plane
+    far = float(np.nanmax(np.where(np.isfinite(onset), onset, np.nan))) + 2.0
+    # a ray's return does not depend on how many rays the fan has; energy_first_return divides by k
+    amp = math.sqrt(SEABED_REFLECTION * k / settings.rays_per_beam)
+    margin, band = settings.onset_margin_m, 1.0
+    bias = float(rng.uniform(*settings.range_bias_m))
+    first = np.full(onset.shape, np.inf)
+    in_band = np.full(onset.shape, np.inf)
+    for s in range(0, len(origins), _CHUNK):
+        sl = slice(s, s + _CHUNK)
+        o = origins[sl]
+        t_hit = np.empty((len(o), k, n_beams))
+        cos_a = np.empty((len(o), k, n_beams))
+        for i, oi in enumerate(o):
+            r, nrm = seabed.intersect_soa(oi, d_soa, max_range=far)
+            t_hit[i] = r.reshape(k, n_beams)
+            cos_a[i] = np.abs((nrm * d_soa).sum(axis=0)).reshape(k, n_beams)
+        cos_a *= amp
+        if settings.cos_jitter > 0:
+            cos_a *= np.exp(settings.cos_jitter * rng.standard_normal(cos_a.shape))
+        hit = np.isfinite(t_hit) & (t_hit < far)
+        first[sl] = energy_first_return(t_hit, cos_a, hit, threshold, settings.bin_m, settings.min_run)
+        lo = (onset[sl] - margin)[:, None, :]
+        in_band[sl] = energy_first_return(t_hit, cos_a, hit & (t_hit >= lo) & (t_hit < lo + band), threshold,
+                                          settings.bin_m, settings.min_run)
+    first = first + bias
+    pi, bi = np.nonzero(first < onset - margin)
+    r = first[pi, bi] + rng.normal(0.0, settings.range_sigma_m, size=pi.size)
+    pts = origins[pi] + r[:, None] * steep[bi]
+    u, w = arc_vectors(heading, tilt)
+    arcs = np.column_stack([origins[pi], u[bi], np.broadcast_to(w, (pi.size, 3)), r])
+    # seabed returns (recon: every frame, every 2nd beam for the texture grid; every 5th frame, every 4th
+    # beam for the tiled planes) and the DVL's bottom points under the vehicle
+    sp, sb = np.nonzero(np.isfinite(in_band))
+    rs = in_band[sp, sb] + bias + rng.normal(0.0, settings.range_sigma_m, size=sp.size)
+    sea = origins[sp] + rs[:, None] * steep[sb]
+    tex = sb % 2 == 0
+    sparse = (sb % 4 == 0) & (sp % 5 == 0)
+    dvl = np.column_stack([origins[:, :2], seabed.depth(origins[:, 0], origins[:, 1])])
+    times = np.asarray(t0 + dt * pi, dtype=np.float64)
+    return LineReturns(pts, arcs, times, pi, dvl, sea[tex], sea[sparse], sp[tex], sp[sparse])
+
+
+def draw_survey(settings: SynthesisSettings, rng: np.random.Generator
+                ) -> tuple[list[LineReturns], int, float, float]:
+    """The returns of the 2-3 lines flown over one drawn seabed patch (see the module docstring), the frames
+    per poll (``clutter_poll_m`` of travel), and the first line's heading and the tilt (deg)."""
+    sb = Seabed(depth=30.0, slope_deg=float(rng.uniform(*settings.clutter_slope_deg)),
+                slope_azimuth_deg=float(rng.uniform(0.0, 360.0)),
+                roughness=float(rng.uniform(*settings.clutter_roughness_m)))
+    seabed = SeabedSurface(sb, int(rng.integers(0, 2**31 - 1)))
+    tilt = math.radians(float(rng.uniform(min(settings.tilts_deg), max(settings.tilts_deg))))
+    spread = math.radians(settings.spread_deg)
+    alt = float(rng.uniform(*settings.clutter_altitude_m))
+    ground = alt / math.tan(tilt + spread / 2)  # horizontal distance to the onset
+    swath = 2.0 * math.hypot(ground, alt) * math.sin(math.radians(HALF_FOV_DEG))
+    spacing = float(rng.uniform(*settings.clutter_spacing)) * swath
+    step = float(rng.uniform(*settings.clutter_step_m))
+    n_lines = int(rng.integers(int(settings.clutter_lines[0]), int(settings.clutter_lines[1]) + 1))
+    psi = float(rng.uniform(0.0, 2 * math.pi))
+    fwd = np.array([math.cos(psi), math.sin(psi)])
+    side = np.array([-math.sin(psi), math.cos(psi)])
+    threshold = float(rng.uniform(*settings.clutter_energy_threshold))
+    half = settings.clutter_line_m / 2
+    xs = np.arange(-half, half, step) + rng.uniform(0.0, step)
+    lines, t0 = [], 0.0
+    for j in range(n_lines):
+        back = j % 2 == 1
+        along = xs[::-1] if back else xs
+        xy = along[:, None] * fwd + (j * spacing) * side
+        z = seabed.plane_depth(xy[:, 0], xy[:, 1]) - alt
+        origins = np.column_stack([xy, z])
+        heading = psi + math.pi if back else psi
+        lr = line_returns(seabed, origins, heading, tilt, settings, rng, t0, 1.0, threshold)
+        a = float(rng.uniform(0.0, 2 * math.pi))
+        lr.shift(np.array([math.cos(a), math.sin(a), 0.0]) * float(rng.uniform(*settings.misalign_m)))
+        lines.append(lr)
+        t0 += len(origins) + 30.0  # frames, and a turn between lines
+    return lines, max(1, round(settings.clutter_poll_m / step)), math.degrees(psi) % 360.0, math.degrees(tilt)
+
+
+def _fit(cells: SeabedCells, plane_pts: F64, lo: F64, hi: F64, cfg: ReconConfig) -> TexturedSeabed | None:
+    """Recon's seabed for a poll over the box ``lo``-``hi``: tiled planes, then the texture grid."""
+    pad = cfg.seabed.tile * 2.0
+    near = plane_pts[np.all((plane_pts[:, :2] >= lo - pad) & (plane_pts[:, :2] <= hi + pad), axis=1)]
+    if near.shape[0] < cfg.seabed.min_points:
+        return None
+    try:
+        coarse = SeabedModel.fit(near, cfg.seabed)
+    except ReconError:
+        return None
+    m = max(cfg.texture.context_m, cfg.texture.window_m + cfg.texture.cell)
+    return fit_textured(cells, coarse, lo - m, hi + m, cfg.texture)
+
+
+def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
+                   ) -> list[tuple[DetectedObject, float]]:
+    """Recon's seabed removal poll by poll, then clusters per line and over all lines (see the module doc):
+    each with its seabed depth, after :func:`recon.poll_seabed.on_seabed`."""
+    cells = SeabedCells(cfg.texture.cell)
+    planes: list[F64] = []
+    kept: list[tuple[F64, F64, F64, int]] = []
+    for j, ln in enumerate(lines):
+        for s in range(0, len(ln.dvl), poll_frames):
+            e = s + poll_frames
+            sel = (ln.frame >= s) & (ln.frame < e)
+            planes.append(ln.dvl[s:e])  # as Reconstructor.add_seabed_points: planes and texture grid
+            cells.add(ln.dvl[s:e])
+            planes.append(ln.sparse[(ln.sparse_frame >= s) & (ln.sparse_frame < e)])
+            cells.add(ln.texture[(ln.texture_frame >= s) & (ln.texture_frame < e)])
+            cells.add(ln.points[sel])
+            if not sel.any():
+                continue
+            p = ln.points[sel]
+            plane_pts = np.concatenate(planes)
+            model = _fit(cells, plane_pts, p[:, :2].min(axis=0), p[:, :2].max(axis=0), cfg)
+            if model is None:
+                continue
+            keep = object_points(p, model, cfg.seabed, cfg.min_object_height, cfg.flank_radius)
+            if keep.any():
+                kept.append((p[keep], ln.times[sel][keep], ln.arcs[sel][keep], j))
+    if not kept:
+        return []
+    plane_pts = np.concatenate(planes)
+    groups = [[k for k in kept if k[3] == j] for j in range(len(lines))]
+    if len(lines) > 1:
+        groups.append(kept)
+    out: list[tuple[DetectedObject, float]] = []
+    seen: set[tuple[int, float, float]] = set()  # a fused cluster that one line alone gave is not repeated
+    for g in groups:
+        if not g:
+            continue
+        p = np.concatenate([k[0] for k in g])
+        objs = cluster(p, np.concatenate([k[1] for k in g]), cfg.cluster, np.concatenate([k[2] for k in g]))
+        if not objs:
+            continue
+        lo = np.min([o.points[:, :2].min(axis=0) for o in objs], axis=0)
+        hi = np.max([o.points[:, :2].max(axis=0) for o in objs], axis=0)
+        model = _fit(cells, plane_pts, lo, hi, cfg)
+        rejected: dict[str, int] = {}
+        for o in on_seabed(objs, model, cfg.max_object_extent, cfg.min_object_height, rejected):
+            key = (o.n_points, round(float(o.centroid[0]), 6), round(float(o.centroid[1]), 6))
+            if key not in seen:
+                seen.add(key)
+                out.append((o, float(o.seabed_depth)))
+    return out
+
+
+def clutter_clouds(settings: SynthesisSettings, rng: np.random.Generator, cfg: ReconConfig | None = None
+                   ) -> tuple[list[tuple[F64, float]], float, float]:
+    """The clutter clusters of one drawn patch: points (n, 3) world NED m, after the front-slope correction,
+    and the seabed depth under each (m); and the heading and tilt (deg) of the patch's first line."""
+    cfg = cfg or ReconConfig()
+    lines, poll, heading, tilt = draw_survey(settings, rng)
+    out = []
+    spread = math.radians(settings.spread_deg)
+    for o, depth in recon_clusters(lines, cfg, poll):
+        fixed = replace_on_arcs(o.points, o.extra, spread, cfg.front_slope_length, cfg.front_slope_width)
+        blend = float(rng.uniform(*settings.correction_blend))
+        out.append((np.asarray(o.points + blend * (fixed - o.points)), depth))
+    return out, heading, tilt
+
+
+def synthesize_clutter(settings: SynthesisSettings, count: int, progress: bool = False
+                       ) -> tuple[npt.NDArray[np.float32], F64]:
+    """``count`` clutter clouds ``(count, n_points, 3)`` as training clouds (:func:`classify.views.training_cloud`)
+    and, per cloud, the heading and tilt (deg) of the patch's first line. Patch ``i`` draws from
+    ``SeedSequence([seed, crc32("clutter"), i])``; patches are drawn until ``count`` clusters came (a cluster
+    that one line alone gave is not repeated as the fused cloud of all lines)."""
+    crc = zlib.crc32(CLUTTER.encode())
+    clouds: list[npt.NDArray[np.float32]] = []
+    meta: list[tuple[float, float]] = []
+    bar = progress_bar(total=count, enabled=progress, desc="clutter", leave=False)
+    for i in range(MAX_PATCHES_PER_CLOUD * max(count, 1)):
+        if len(clouds) >= count:
+            break
+        rng = np.random.default_rng(np.random.SeedSequence([settings.seed, crc, i]))
+        found, heading, tilt = clutter_clouds(settings, rng)
+        for pts, depth in found[: count - len(clouds)]:
+            cloud, _ = training_cloud(pts, settings, rng, min(len(pts), settings.n_points), depth)
+            clouds.append(cloud)
+            meta.append((heading, tilt))
+            bar.update(1)
+    bar.close()
+    if len(clouds) < count:
+        raise SynthesisError(f"{len(clouds)} clutter clouds from {MAX_PATCHES_PER_CLOUD * count} seabed patches, "
+                             f"{count} asked (clutter_clouds); widen clutter_roughness_m or ask fewer")
+    return np.stack(clouds), np.asarray(meta, dtype=np.float64)
