@@ -136,11 +136,12 @@ class Reconstructor:
         alt = self.poses.altitude_at(ts)
         onset = self._onset(pos, rot, alt)
         band = self.config.band
-        lead = onset_rows(g, onset, hc.margin_m + max(band.lead_m, band.lead_flat_m))
-        thr = frame_thresholds(imgs, int(lead.min(initial=g.n_bins)), hc)
-        # each column's seabed return, and the expected onset corrected by them (recon.seabed_band)
-        # while the seabed fitted so far spans only a few metres (the first seconds of a survey) its slope is
-        # unknown (the regional plane is level; recon.seabed): search much wider
+        # the threshold's statistics come from the water column before the widest seabed search
+        water = onset_rows(g, onset, hc.margin_m + max(band.lead_m, band.lead_flat_m))
+        thr = frame_thresholds(imgs, int(water.min(initial=g.n_bins)), hc)
+        # each column's seabed return, and the expected onset corrected by them (recon.seabed_band); while the
+        # seabed fitted so far spans only a few metres (the first seconds of a survey) its slope is unknown
+        # (the regional plane is level; recon.seabed): search much wider
         known = self._onset_model is not None and self._onset_model.span >= band.known_span_m
         lead_m = band.lead_m if known else band.lead_flat_m
         sf, sb, sr = seabed_returns(g, imgs, onset, thr, hc.margin_m, band, lead_m)
@@ -149,7 +150,7 @@ class Reconstructor:
         limits = onset_rows(g, onset, hc.margin_m)
         fi, bi, ri = first_returns(imgs, limits, thr, hc)
         self.last_returns = (fi, bi, ri)
-        self._add_seabed_samples(sf, sb, sr, fi, bi, onset, pos, rot)
+        self._add_seabed_samples(sf, sb, sr, fi, bi, ri, onset, pos, rot)
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
         if self.config.texture.enabled and self.config.texture.highlights and fi.size:
             self._cells.add(pts)  # the first returns before the onset: crests (objects: their cells are found)
@@ -168,19 +169,20 @@ class Reconstructor:
         return int(fi.size)
 
     def _add_seabed_samples(self, sf: NDArray[np.int64], sb: NDArray[np.int64], sr: NDArray[np.int64],
-                            fi: NDArray[np.int64], bi: NDArray[np.int64], onset: F64, pos: F64, rot: Rotation
-                            ) -> None:
+                            fi: NDArray[np.int64], bi: NDArray[np.int64], ri: NDArray[np.int64], onset: F64,
+                            pos: F64, rot: Rotation) -> None:
         """The seabed returns ``(sf, sb, sr)`` of a batch as seabed samples: every ``texture_beam_step``-th beam
         into the texture grid, every ``seabed_beam_step``-th beam of every ``seabed_every``-th frame into the
         tiled planes' points. Left out: returns more than ``band.sample_lead_m`` before the (corrected) onset
         (an object's front, a high crest) and columns whose highlight return came before the seabed return
-        (the seabed return is then not the column's first: it lies under the seabed)."""
+        (the seabed return is then not the column's first: it lies under the seabed); ``(fi, bi, ri)`` are the
+        batch's highlight returns."""
         g, cfg = self.geometry, self.config
         tex = cfg.texture.enabled
         if not (tex or cfg.seabed_every > 0) or sf.size == 0:
             return
         first = np.full((onset.shape[0], g.n_beams), g.n_bins, np.int64)
-        first[fi, bi] = self.last_returns[2]
+        first[fi, bi] = ri
         near = g.ranges[sr] >= onset[sf, sb] - cfg.highlight.margin_m - cfg.band.sample_lead_m
         ok = near & (first[sf, sb] >= sr)
         sf, sb, sr = sf[ok], sb[ok], sr[ok]

@@ -55,15 +55,16 @@ def _key(ij: NDArray[np.int64]) -> NDArray[np.int64]:
 class SeabedModel:
     """Tiled robust plane fit of the seabed; see the module docstring."""
 
-    def __init__(self, tile: float, ij: NDArray[np.int64], coef: F64, regional: F64 | None = None) -> None:
+    def __init__(self, tile: float, ij: NDArray[np.int64], coef: F64, regional: F64 | None = None,
+                 span: float = float("inf")) -> None:
         if ij.shape[0] == 0:
             raise ReconError("seabed model has no fitted tile (too few seabed points)")
         self.tile = float(tile)
         #: (depth at the centre, d depth / d north, d depth / d east, centre north, centre east): one plane
         #: through all the points, for tiles without points of their own
         self.regional = regional
-        #: m: the larger horizontal extent of the points fitted (set by :meth:`fit`; inf when built directly)
-        self.span = float("inf")
+        #: m: the larger horizontal extent of the points fitted (inf when not known)
+        self.span = float(span)
         order = np.argsort(_key(ij))
         self.ij = ij[order]
         self.coef = coef[order]
@@ -92,28 +93,7 @@ class SeabedModel:
         counts = np.bincount(tix, minlength=n_t)
         z = p[pt_idx, 2] - base[pt_idx]
         a = np.stack([np.ones_like(d[:, 0]), d[:, 0], d[:, 1]], axis=1)
-        w = np.ones(z.size)
-        coef = np.zeros((n_t, 3))
-        for it in range(max(2, cfg.iterations)):
-            ata = np.zeros((n_t, 3, 3))
-            atz = np.zeros((n_t, 3))
-            for r in range(3):
-                atz[:, r] = np.bincount(tix, weights=w * a[:, r] * z, minlength=n_t)
-                for c in range(r, 3):
-                    s_rc = np.bincount(tix, weights=w * a[:, r] * a[:, c], minlength=n_t)
-                    ata[:, r, c] = ata[:, c, r] = s_rc
-            wsum = np.maximum(ata[:, 0, 0], 1e-12)
-            ata[:, 1, 1] += cfg.ridge * wsum
-            ata[:, 2, 2] += cfg.ridge * wsum
-            ata[:, 0, 0] += 1e-12
-            coef = np.asarray(np.linalg.solve(ata, atz[..., None])[..., 0], dtype=np.float64)
-            res = z - np.einsum("ni,ni->n", a, coef[tix])
-            if it == 0:  # objects only stand above the seabed: restart from the deeper half
-                w = (res >= 0).astype(np.float64)
-                continue
-            wss = np.bincount(tix, weights=w * res**2, minlength=n_t)
-            sigma = np.maximum(np.sqrt(wss / wsum), cfg.sigma_floor)
-            w = (np.abs(res) <= cfg.clip_sigma * sigma[tix]).astype(np.float64)
+        coef, w = _irls_planes(a, z, tix, n_t, cfg.ridge, cfg)
         good = np.bincount(tix, weights=w, minlength=n_t) >= cfg.min_points
         good &= counts >= cfg.min_points
         ij = np.stack([keys >> 32, (keys & 0xFFFFFFFF).astype(np.int32).astype(np.int64)], axis=1)
@@ -121,9 +101,8 @@ class SeabedModel:
             coef[:, 0] += _plane_depth(regional, (ij + 0.5) * t)
             coef[:, 1] += regional[1] * t
             coef[:, 2] += regional[2] * t
-        model = cls(t, ij[good], coef[good], regional)
-        model.span = float(np.max(np.ptp(p[:, :2], axis=0))) if p.shape[0] else 0.0
-        return model
+        span = float(np.max(np.ptp(p[:, :2], axis=0))) if p.shape[0] else 0.0
+        return cls(t, ij[good], coef[good], regional, span)
 
     def _lookup(self, ij: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
         """Index of each tile's plane (the nearest fitted tile where it has none) and whether it had one."""
@@ -194,23 +173,43 @@ def regional_plane(p: F64, cfg: SeabedConfig) -> F64 | None:
     if p.shape[0] < cfg.min_points:
         return None
     c = p[:, :2].mean(axis=0)
-    d = p[:, :2] - c
-    a = np.column_stack([np.ones(p.shape[0]), d])
-    w = np.ones(p.shape[0])
-    coef = np.zeros(3)
+    a = np.column_stack([np.ones(p.shape[0]), p[:, :2] - c])  # metres from the centre
+    # the slope is trusted only where the points span more than ~regional_span m: on a rough seabed the
+    # slope over a few metres is the texture's (10 deg and more), not the seabed's
+    coef, _ = _irls_planes(a, p[:, 2], np.zeros(p.shape[0], np.int64), 1, cfg.regional_span**2, cfg)
+    return np.array([coef[0, 0], coef[0, 1], coef[0, 2], c[0], c[1]])
+
+
+def _irls_planes(a: F64, z: F64, tix: NDArray[np.int64], n_t: int, ridge: float, cfg: SeabedConfig
+                 ) -> tuple[F64, F64]:
+    """Planes ``z = a @ coef[g]`` (``a``: (N, 3) rows of 1 and the two horizontal offsets) of ``n_t`` groups
+    (point ``k`` in group ``tix[k]``) by iteratively reweighted least squares: a plain fit, then the deeper
+    half of the points (objects only stand above the seabed), then the points within ``clip_sigma`` sigmas;
+    ``ridge`` x the group's weight on the two slope terms. Returns the (n_t, 3) coefficients and the last
+    weights (N,)."""
+    w = np.ones(z.size)
+    coef = np.zeros((n_t, 3))
     for it in range(max(2, cfg.iterations)):
-        aw = a * w[:, None]
-        # the slope is trusted only where the points span more than ~regional_span m: on a rough seabed the
-        # slope over a few metres is the texture's (10 deg and more), not the seabed's
-        ata = aw.T @ a + np.diag([1e-12, 1.0, 1.0]) * cfg.regional_span**2 * max(w.sum(), 1e-12)
-        coef = np.linalg.solve(ata, aw.T @ p[:, 2])
-        res = p[:, 2] - a @ coef
-        if it == 0:
+        ata = np.zeros((n_t, 3, 3))
+        atz = np.zeros((n_t, 3))
+        for r in range(3):
+            atz[:, r] = np.bincount(tix, weights=w * a[:, r] * z, minlength=n_t)
+            for c in range(r, 3):
+                s_rc = np.bincount(tix, weights=w * a[:, r] * a[:, c], minlength=n_t)
+                ata[:, r, c] = ata[:, c, r] = s_rc
+        wsum = np.maximum(ata[:, 0, 0], 1e-12)
+        ata[:, 1, 1] += ridge * wsum
+        ata[:, 2, 2] += ridge * wsum
+        ata[:, 0, 0] += 1e-12
+        coef = np.asarray(np.linalg.solve(ata, atz[..., None])[..., 0], dtype=np.float64)
+        res = z - np.einsum("ni,ni->n", a, coef[tix])
+        if it == 0:  # objects only stand above the seabed: restart from the deeper half
             w = (res >= 0).astype(np.float64)
             continue
-        sigma = max(float(np.sqrt(np.sum(w * res**2) / max(w.sum(), 1e-12))), cfg.sigma_floor)
-        w = (np.abs(res) <= cfg.clip_sigma * sigma).astype(np.float64)
-    return np.array([coef[0], coef[1], coef[2], c[0], c[1]])
+        wss = np.bincount(tix, weights=w * res**2, minlength=n_t)
+        sigma = np.maximum(np.sqrt(wss / wsum), cfg.sigma_floor)
+        w = (np.abs(res) <= cfg.clip_sigma * sigma[tix]).astype(np.float64)
+    return coef, w
 
 
 def object_mask(points: ArrayLike, model: SeabedModel, config: SeabedConfig | None = None
