@@ -144,6 +144,7 @@ class Reconstructor:
         # (the regional plane is level; recon.seabed): search much wider
         known = self._onset_model is not None and self._onset_model.span >= band.known_span_m
         lead_m = band.lead_m if known else band.lead_flat_m
+        self._tracker.set_known(known)
         sf, sb, sr = seabed_returns(g, imgs, onset, thr, hc.margin_m, band, lead_m)
         if band.correct_onset:
             onset = self._tracker.correct(g, onset, sf, sb, sr)
@@ -230,7 +231,12 @@ class Reconstructor:
         if cached is not None:
             c_lo, c_hi, c_n, model = cached
             inside = bool(np.all(lo >= c_lo) and np.all(hi <= c_hi))
-            recent = self.frames - self._onset_fit_frame < self.config.onset_refit_frames
+            # a fit spanning only a few metres (a survey's first seconds) knows little of the slope ahead: refit
+            # ten times as often while the data grow (the fit is small then)
+            every = self.config.onset_refit_frames
+            if model.span < self.config.band.known_span_m:
+                every = max(1, every // 10)
+            recent = self.frames - self._onset_fit_frame < every
             if inside and (n_sb == c_n or recent):
                 return model
         if n_sb < self.config.seabed.min_points:

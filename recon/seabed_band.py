@@ -25,8 +25,11 @@ When the fit behind the prediction changes, the correction is carried over (:met
 so it stays continuous; a frame with too few returns near it leaves it as it is.
 After ``reacquire`` such frames in a row it is taken afresh: the median of the frame's returns.
 It never puts the onset more than ``max_deeper_m`` beyond the fit's: a seabed searched past its true onset
-turns into highlight points, while an onset put too near only shortens the highlights. The highlight search
-uses the corrected onset.
+turns into highlight points, while an onset put too near only shortens the highlights. While the seabed fitted
+so far spans less than ``known_span_m`` (the first metres of a survey: the slope ahead is not known, and a
+flat prediction on a 5-10 deg slope puts the onset 0.3-1 m of range too near, so that every object lower than
+that error is taken for the seabed), the limit is ``band_m``, the end of the seabed search
+(:attr:`OnsetTracker.deeper_m`). The highlight search uses the corrected onset.
 """
 
 from __future__ import annotations
@@ -81,10 +84,16 @@ class OnsetTracker:
         self.ready = False  # the first frame with enough returns sets the correction outright
         self._misses = 0  # frames in a row without enough returns near the correction
         self._beams = np.arange(n_beams, dtype=np.float64)
+        #: m of range: how far beyond the fit's onset the correction may go (:meth:`set_known`)
+        self.deeper_m = cfg.max_deeper_m
+
+    def set_known(self, known: bool) -> None:
+        """Whether the fit's slope ahead is known: ``max_deeper_m`` then, else ``band_m``."""
+        self.deeper_m = self.cfg.max_deeper_m if known else max(self.cfg.max_deeper_m, self.cfg.band_m)
 
     def rebase(self, delta: F64) -> None:
         """The prediction moved by ``-delta`` (new fit): keep the corrected onset where it was."""
-        self.est = np.clip(self.est + np.asarray(delta, np.float64), -self.cfg.lead_flat_m, self.cfg.max_deeper_m)
+        self.est = np.clip(self.est + np.asarray(delta, np.float64), -self.cfg.lead_flat_m, self.deeper_m)
 
     def correct(self, geometry: SonarGeometry, onset: F64, fi: I64, bi: I64, ri: I64) -> F64:
         """Corrected onsets (F, beams) m of the frames of a batch, in time order."""
@@ -110,7 +119,7 @@ class OnsetTracker:
                 if self._misses >= cfg.reacquire and ok.sum() >= cfg.min_beams:
                     self.est = np.full(nb, float(np.median(row[ok])))
                     self._misses = 0
-            self.est = np.clip(self.est, -cfg.lead_flat_m, cfg.max_deeper_m)
+            self.est = np.clip(self.est, -cfg.lead_flat_m, self.deeper_m)
             out[k] = onset[k] + self.est
         return out
 

@@ -51,6 +51,25 @@ def test_the_onset_is_never_put_much_beyond_the_fit() -> None:
     assert (out - onset).max() <= BandConfig().max_deeper_m + 1e-9
 
 
+def test_a_fit_too_shallow_is_corrected_while_the_seabed_is_not_known() -> None:
+    # the first metres of a survey down a slope: the fit (level) puts the onset 0.6 m of range too near, and
+    # every object lower than that error would be taken for the seabed; the returns move it while the fitted
+    # seabed spans little, by at most band_m (the end of the seabed search)
+    cfg = BandConfig()
+    trk = OnsetTracker(NB, cfg)
+    trk.set_known(False)
+    d = np.full((80, NB), 0.6)
+    onset, fi, bi, ri = _returns(d)
+    out = trk.correct(GEOM, onset, fi, bi, ri)
+    assert np.allclose(out[-1] - onset[-1], 0.6, atol=0.03)
+    trk.set_known(True)  # a fit spanning the survey: the limit is max_deeper_m again, from the next frame on
+    out = trk.correct(GEOM, onset, fi, bi, ri)
+    assert (out - onset).max() <= cfg.max_deeper_m + 1e-9
+    trk.set_known(False)
+    far = trk.correct(GEOM, *_returns(np.full((80, NB), 1.8)))  # never past the end of the search
+    assert (far - 8.0).max() <= cfg.band_m + 1e-9
+
+
 def test_rebase_keeps_the_corrected_onset_where_it_was() -> None:
     trk = OnsetTracker(NB, BandConfig())
     d = np.full((60, NB), -0.3)
