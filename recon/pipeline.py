@@ -142,7 +142,7 @@ class Reconstructor:
         # each column's seabed return, and the expected onset corrected by them (recon.seabed_band); while the
         # seabed fitted so far spans only a few metres (the first seconds of a survey) its slope is unknown
         # (the regional plane is level; recon.seabed): search much wider
-        known = self._onset_model is not None and self._onset_model.span >= band.known_span_m
+        known = self._slope_known(self._onset_model)
         lead_m = band.lead_m if known else band.lead_flat_m
         self._tracker.set_known(known)
         sf, sb, sr = seabed_returns(g, imgs, onset, thr, hc.margin_m, band, lead_m)
@@ -223,6 +223,10 @@ class Reconstructor:
         q, n = model.plane_at(look)
         return g.onset_ranges(pos, rot, q, n)
 
+    def _slope_known(self, model: SeabedModel | None) -> bool:
+        """True when ``model`` was fitted over ``band.known_span_m`` of seabed or more (its slope ahead is known)."""
+        return model is not None and model.span >= self.config.band.known_span_m
+
     def _seabed_model(self, pos: F64) -> SeabedModel | None:
         """Seabed model around ``pos`` for the onset, refitted when the data or the area changed."""
         n_sb = self._n_seabed
@@ -234,7 +238,7 @@ class Reconstructor:
             # a fit spanning only a few metres (a survey's first seconds) knows little of the slope ahead: refit
             # ten times as often while the data grow (the fit is small then)
             every = self.config.onset_refit_frames
-            if model.span < self.config.band.known_span_m:
+            if not self._slope_known(model):
                 every = max(1, every // 10)
             recent = self.frames - self._onset_fit_frame < every
             if inside and (n_sb == c_n or recent):
