@@ -15,8 +15,8 @@ they become clusters, which the classifier must call ``clutter``. They are synth
   reckoning leaves between lines).
 * **Returns per frame and beam** (:func:`line_returns`): every ray of the fan (``rays_per_beam`` per beam) is
   intersected with the seabed; its return is that of :func:`classify.scan_synth.energy_first_return` (the
-  simulator's ``cos^2 / r^2``, speckle ``cos_jitter``, recon's threshold ``energy_threshold`` and run length
-  ``min_run``), times the seabed's reflection relative to the steel objects' (sand / steel,
+  simulator's ``cos^2 / r^2``, speckle ``cos_jitter``, recon's threshold ``energy_threshold`` and run rule
+  ``min_run`` in ``run_span_m``), times the seabed's reflection relative to the steel objects' (sand / steel,
   :data:`auvlink.sim.catalog.MATERIALS`). A first return closer than the steepest ray's onset on the mean plane
   less ``onset_margin_m`` is a highlight-extension point, placed on the steepest ray (range lag
   ``range_bias_m``, jitter ``range_sigma_m``); the first return in the band after the onset is a seabed
@@ -129,10 +129,11 @@ def line_returns(seabed: SeabedSurface, origins: F64, heading: float, tilt: floa
         if settings.cos_jitter > 0:
             cos_a *= np.exp(settings.cos_jitter * rng.standard_normal(cos_a.shape))
         hit = np.isfinite(t_hit) & (t_hit < far)
-        first[sl] = energy_first_return(t_hit, cos_a, hit, threshold, settings.bin_m, settings.min_run)
+        first[sl] = energy_first_return(t_hit, cos_a, hit, threshold, settings.bin_m, settings.min_run,
+                                        span=settings.span_bins)
         lo = (onset[sl] - margin)[:, None, :]
         in_band[sl] = energy_first_return(t_hit, cos_a, hit & (t_hit >= lo) & (t_hit < lo + band), threshold,
-                                          settings.bin_m, settings.min_run)
+                                          settings.bin_m, settings.min_run, span=settings.span_bins)
     first = first + bias
     pi, bi = np.nonzero(first < onset - margin)
     r = first[pi, bi] + rng.normal(0.0, settings.range_sigma_m, size=pi.size)

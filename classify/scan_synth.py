@@ -14,8 +14,8 @@ the reconstruction (``recon.highlight``, exact mode):
   near the threshold passes or not at random). The beam's first return is the nearest such hit.
 * Detection ``"energy"`` (the shipped model's) replaces the per-ray ``|cos|`` test: each ray returns
   ``cos^2 (r0 / r)^2 / K`` into its range bin (the simulator's and the sonar equation's ``cos^2 / r^2``),
-  a beam's rays are summed per bin, and the first bin that, with the ``min_run - 1`` bins after it,
-  holds at least a threshold drawn from ``energy_threshold`` is the beam's first return (recon's
+  a beam's rays are summed per bin, and the first bin that, with ``min_run - 1`` more among the ``run_span_m``
+  after it, holds at least a threshold drawn from ``energy_threshold`` is the beam's first return (recon's
   threshold and run length on the image). A grazing hit on a rounded top, alone in its bin, is too
   weak: the return comes from lower down the front, and more so at a low tilt, as on rendered frames
   (heights of simulated passes within 0.03 m of what recon reconstructs, per class and tilt).
@@ -83,9 +83,10 @@ def arc_vectors(heading_rad: float, tilt_rad: float) -> tuple[F64, F64]:
 
 
 def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], threshold: float, bin_m: float,
-                        min_run: int, r0: float = 6.0) -> F64:
-    """Per position and beam ``(P, beams)`` the range of the first bin whose summed return, and that of the
-    ``min_run - 1`` bins after it, reach ``threshold``; ``inf`` where none does.
+                        min_run: int, r0: float = 6.0, span: int = 0) -> F64:
+    """Per position and beam ``(P, beams)`` the range of the first bin whose summed return reaches ``threshold``
+    with at least ``min_run`` such bins (itself included) among the ``span`` bins from it (recon's rule,
+    :func:`recon.highlight.first_returns`; ``span`` <= ``min_run``: consecutive bins); ``inf`` where none does.
 
     ``t_hit``, ``cos_a``, ``hit``: ``(P, K, beams)`` per ray. A ray returns ``cos^2 (r0 / r)^2 / K`` (the
     simulator's ``cos^2 / r^2`` per ray, a beam of K rays at normal incidence at ``r0`` summing to 1)
@@ -106,13 +107,15 @@ def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], thre
     b0 = np.minimum.reduceat(b, starts)
     off = b - b0[ci]
     run = max(1, min_run)
+    span = max(run, span)
     width = int(off.max()) + run
     if starts.size * width > DENSE_MAX:  # rays spread over a long range: bins of the sparse (cell, bin) keys
-        return _first_run_sparse(out, cell, b, e, threshold, bin_m, run)
+        return _first_run_sparse(out, cell, b, e, threshold, bin_m, run, span)
     enough = np.bincount(ci * width + off, weights=e, minlength=starts.size * width).reshape(-1, width) >= threshold
-    ok = enough.copy()
-    for d in range(1, run):  # bins b .. b + min_run - 1 each hold enough
-        ok[:, : width - d] &= enough[:, d:]
+    count = enough.astype(np.int32)
+    for d in range(1, min(span, width)):  # bins b .. b + span - 1 holding enough
+        count[:, : width - d] += enough[:, d:]
+    ok = enough & (count >= run)
     ok[:, width - run + 1:] = False
     found = ok.any(axis=1)
     first = b0[found] + np.argmax(ok[found], axis=1)
@@ -121,17 +124,15 @@ def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], thre
 
 
 def _first_run_sparse(out: F64, cell: npt.NDArray[np.int64], b: npt.NDArray[np.int64], e: F64, threshold: float,
-                      bin_m: float, run: int) -> F64:
+                      bin_m: float, run: int, span: int) -> F64:
     """:func:`energy_first_return` over the sorted unique (cell, bin) keys (memory by rays, not by bins)."""
     lo = int(b.min())
     b = b - lo
-    nb = int(b.max()) + run + 1  # a run never reaches the next cell's keys
+    nb = int(b.max()) + span + 1  # a span never reaches the next cell's keys
     keys, inv = np.unique(cell * nb + b, return_inverse=True)
     good = keys[np.bincount(inv.ravel(), weights=e) >= threshold]
-    ok = np.ones(good.size, bool)
-    for d in range(1, run):
-        ok &= np.isin(good + d, good, assume_unique=True)
-    start = good[ok]
+    # good bins in [key, key + span) (sorted keys, within the cell: nb leaves room for the span)
+    start = good[np.searchsorted(good, good + span, side="left") - np.arange(good.size) >= run]
     if start.size:
         cells, first = np.unique(start // nb, return_index=True)  # sorted keys: a cell's first run comes first
         out.reshape(-1)[cells] = (start[first] % nb + lo) * bin_m + 0.5 * bin_m
@@ -195,7 +196,7 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
     if settings.detect == "energy":
         hit = np.isfinite(t_hit) & (t_hit < r_sea[None])
         first = energy_first_return(t_hit, cos_a, hit, float(rng.uniform(*settings.energy_threshold)),
-                                    settings.bin_m, settings.min_run) + bias
+                                    settings.bin_m, settings.min_run, span=settings.span_bins) + bias
     else:
         hit = np.isfinite(t_hit) & (t_hit < r_sea[None]) & (cos_a >= c_min)
         first = np.where(hit, t_hit, np.inf).min(axis=1) + bias  # (positions, beams)

@@ -52,6 +52,7 @@ class SynthesisSettings:
     energy_threshold: tuple[float, float] = (0.02, 0.1)
     bin_m: float = 10.0 / 512
     min_run: int = 2
+    run_span_m: float = 0.0  # m: min_run bins among this much range (recon.highlight); 0: consecutive bins
     correction: str = "none"  # scan mode: "arc" applies recon's front-slope correction (as the pipeline does)
     correction_length_m: float = 1.0
     correction_width_m: float = 0.25
@@ -95,6 +96,12 @@ class SynthesisSettings:
                 v = d[k]
                 kw[k] = tuple(float(x) for x in v) if isinstance(v, list | tuple) else v
         return cls(**kw)
+
+    @property
+    def span_bins(self) -> int:
+        """``run_span_m`` in bins of ``bin_m`` (at least ``min_run``)."""
+        run = max(1, self.min_run)
+        return max(run, int(round(self.run_span_m / self.bin_m))) if self.bin_m > 0 else run
 
     @property
     def directions(self) -> list[tuple[float, float]]:

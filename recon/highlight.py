@@ -11,8 +11,13 @@ with the gain):
   objects return 140-190, so k = 8 (threshold ~170) lost the weaker objects (the box of the demo).
 - ``percentile``: ``fraction`` times the ``percentile``-th percentile of the whole frame (the
   seabed band is the bright reference).
-Either way the threshold is at least ``min_level``. A return must stay above the threshold for
-``min_run`` consecutive bins (isolated speckle pixels are ignored).
+Either way the threshold is at least ``min_level``. A return is a bin above the threshold with at least
+``min_run`` bins above it (itself included) among the ``run_span_m`` of range that start there: an isolated
+speckle pixel is ignored, while a surface seen at a shallow angle may be. A beam's vertical fan meets a
+nearly level surface (the top of a half pipe or a hemisphere, the seabed) at ranges that grow with the
+elevation, and a sonar that samples the fan with a finite number of rays (the simulator: 32) returns such a
+surface as a comb of bright bins 3-15 bins apart (r d_elev / tan(elev)), not as a run; asking for
+consecutive bins found the half pipes and hemispheres in only a few frames, and most were missed.
 
 Search (vectorized over beams and frames): boolean mask ``image > thr`` limited to rows < the
 beam's onset row minus a margin, first True by ``argmax``. With ``skip`` the search reads only
@@ -47,7 +52,8 @@ class HighlightConfig:
     percentile: float = 99.5
     fraction: float = 0.5
     min_level: int = 24
-    min_run: int = 2
+    min_run: int = 2  # bins above the threshold ...
+    run_span_m: float = 0.25  # ... among this much range from the return's own bin (>= min_run bins)
     margin_m: float = 0.1  # search only rows closer than onset - margin
     stats_samples: int = 1024  # pixels per frame behind the robust statistics (strided grid)
     skip: bool = True
@@ -66,6 +72,27 @@ class HighlightPoints:
 
     def __len__(self) -> int:
         return int(self.frame.shape[0])
+
+
+def run_span_bins(cfg: HighlightConfig, bin_m: float) -> int:
+    """The span of :attr:`HighlightConfig.run_span_m` in bins of ``bin_m`` m (at least ``min_run``)."""
+    run = max(1, cfg.min_run)
+    return max(run, int(round(cfg.run_span_m / bin_m))) if bin_m > 0 else run
+
+
+def _starts(above: NDArray[np.bool_], n_valid: int, run: int, span: int) -> NDArray[np.bool_]:
+    """Where a return starts, (F, n_valid, B) of ``above`` (F, R, B): the bin is above the threshold and at
+    least ``run`` of the ``span`` bins from it (those inside the image) are."""
+    first = above[:, :n_valid]
+    if run <= 1:
+        return first
+    count = first.astype(np.uint8)
+    for k in range(1, span):
+        m = min(n_valid, above.shape[1] - k)
+        if m <= 0:
+            break
+        count[:, :m] += above[:, k : k + m]
+    return first & (count >= run)
 
 
 def _hist_median(hist: NDArray[np.int64]) -> I64:
@@ -117,46 +144,38 @@ def _column_max(x: NDArray[np.uint8]) -> NDArray[np.uint8]:
     return x[:, 0]
 
 
-def first_returns(images: NDArray[np.uint8], limits: I64, thr: F64, cfg: HighlightConfig
+def first_returns(images: NDArray[np.uint8], limits: I64, thr: F64, cfg: HighlightConfig, span: int | None = None
                   ) -> tuple[I64, I64, I64]:
-    """(frame, beam, row) of the first run above ``thr`` in rows < ``limits`` (F, beams).
+    """(frame, beam, row) of the first return (see the module doc) in rows < ``limits`` (F, beams).
 
-    With ``cfg.skip`` only the rows before the latest onset are read, and only the columns (frame,
-    beam) that hold such a run before their own onset are searched: per pixel the minimum over the
-    run (a run starts at row r iff that minimum exceeds the threshold), rows at or past the beam's
-    onset zeroed, one column max, then ``argmax`` on the live columns alone (on seabed-only frames
+    ``span``: the bins of ``cfg.run_span_m`` (:func:`run_span_bins`); None: ``cfg.min_run`` (consecutive bins).
+    With ``cfg.skip`` only the rows before the latest onset (+ the span) are read, and only the columns (frame,
+    beam) that hold a return before their own onset are searched: the returns of the frame (rows at or past the
+    beam's onset cleared), one column max, then ``argmax`` on the live columns alone (on seabed-only frames
     with speckle, almost none). Without it the whole image is searched; the same points either way.
     """
     f, n_bins, _ = images.shape
     run = max(1, cfg.min_run)
+    span = run if span is None else max(run, int(span))
+    n_valid = n_bins - run + 1  # rows where a return may start (``run`` bins must fit in the image)
     thr_u = np.clip(np.floor(thr), 0, 255).astype(np.uint8)  # x > thr <=> x > floor(thr) for integers
     empty: tuple[I64, I64, I64] = (np.zeros(0, np.int64),) * 3
-    if cfg.skip:
-        hi = int(limits.max(initial=0))
-        n_valid = min(hi, n_bins - run + 1)  # rows where a run may start
-        if f == 0 or n_valid <= 0:
-            return empty
-        region = images[:, : n_valid + run - 1]
-        start = region[:, :n_valid]
-        for k in range(1, run):
-            start = np.minimum(start, region[:, k : k + n_valid])
-        lo = int(limits.min(initial=n_valid))
-        if lo < n_valid:  # rows at or past a beam's own onset row cannot start a run
-            if run == 1:
-                start = start.copy()  # a view of the caller's images
-            band = start[:, lo:]
-            band[np.arange(lo, n_valid)[None, :, None] >= limits[:, None, :]] = 0
-        lf, lb = np.nonzero(_column_max(start) > thr_u[:, None])
-        cols = start[lf, :, lb]  # (live columns, rows)
-        first = np.argmax(cols > thr_u[lf][:, None], axis=1)
-        return lf.astype(np.int64), lb.astype(np.int64), first.astype(np.int64)
-    n_valid = n_bins - run + 1
-    if n_valid <= 0:
+    if f == 0 or n_valid <= 0:
         return empty
-    above = images > thr_u[:, None, None]
-    mask = above[:, :n_valid]
-    for k in range(1, run):  # a run of `run` bins above the threshold starts here
-        mask = mask & above[:, k : k + n_valid]
+    if cfg.skip:
+        n_valid = min(int(limits.max(initial=0)), n_valid)
+        if n_valid <= 0:
+            return empty
+        above = images[:, : min(n_bins, n_valid + span - 1)] > thr_u[:, None, None]
+        start = _starts(above, n_valid, run, span)  # ours (a view of ``above`` at most): cleared below
+        lo = int(limits.min(initial=n_valid))
+        if lo < n_valid:  # rows at or past a beam's own onset row cannot start a return
+            band = start[:, lo:]
+            band[np.arange(lo, n_valid)[None, :, None] >= limits[:, None, :]] = False
+        lf, lb = np.nonzero(_column_max(start.view(np.uint8)))
+        first = np.argmax(start[lf, :, lb], axis=1)  # (live columns, rows)
+        return lf.astype(np.int64), lb.astype(np.int64), first.astype(np.int64)
+    mask = _starts(images > thr_u[:, None, None], n_valid, run, span)
     rows = np.arange(n_valid)
     mask = mask & (rows[None, :, None] < limits[:, None, :])
     first = np.argmax(mask, axis=1)  # (F, beams)
@@ -225,6 +244,6 @@ def extract(images: NDArray[np.uint8], positions: F64, rotations: Rotation, onse
     limits = onset_rows(geometry, np.atleast_2d(onset), c.margin_m)
     stat_rows = int(limits.min(initial=geometry.n_bins))
     thr = frame_thresholds(imgs, stat_rows, c)
-    fi, bi, ri = first_returns(imgs, limits, thr, c)
+    fi, bi, ri = first_returns(imgs, limits, thr, c, run_span_bins(c, geometry.bin_size))
     pts = project(geometry, fi, bi, ri, positions, rotations, c.geometry, c.dtype)
     return HighlightPoints(pts, fi, bi, ri)

@@ -26,7 +26,7 @@ from recon.errors import GeometryError, ReconError
 from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude
 from recon.front_slope import arc_columns, carve_keep, replace_on_arcs
-from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project
+from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project, run_span_bins
 from recon.poll_seabed import object_points, on_seabed
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_band import BandConfig, OnsetTracker, seabed_returns
@@ -149,7 +149,7 @@ class Reconstructor:
         if band.correct_onset:
             onset = self._tracker.correct(g, onset, sf, sb, sr)
         limits = onset_rows(g, onset, hc.margin_m)
-        fi, bi, ri = first_returns(imgs, limits, thr, hc)
+        fi, bi, ri = first_returns(imgs, limits, thr, hc, run_span_bins(hc, g.bin_size))
         self.last_returns = (fi, bi, ri)
         self._add_seabed_samples(sf, sb, sr, fi, bi, ri, onset, pos, rot)
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)

@@ -8,6 +8,8 @@ from dataclasses import replace
 import numpy as np
 import open3d as o3d
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from classify.errors import SynthesisError
 from classify.scan_synth import N_BEAMS, scan_points, sonar_rays
@@ -161,3 +163,37 @@ def test_fused_and_partial_views() -> None:
         part.append(np.ptp(p[:, 0]) if len(p) else 0.0)
     # measured: whole views 2.98-3.00 m along the bar, partial ones 1.0-3.0 m (median 2.1)
     assert np.median(whole) > 2.8 and np.median(part) < 0.8 * np.median(whole), (whole, part)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.integers(1, 3), st.integers(0, 8))
+def test_energy_first_return_span_rule_dense_equals_sparse(seed: int, run: int, span: int) -> None:
+    """``min_run`` bins within ``span``: a comb of single-ray bins passes once the span holds two teeth, and the
+    sparse search (long ranges) finds exactly what the dense one does."""
+    from classify import scan_synth
+
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(4.0, 4.4, (3, 6, 5))
+    t[rng.random(t.shape) < 0.3] = np.inf
+    cos = rng.uniform(0.0, 1.0, t.shape)
+    hit = np.isfinite(t)
+    dense = scan_synth.energy_first_return(t, cos, hit, 0.02, 0.02, run, span=span)
+    old = scan_synth.DENSE_MAX
+    try:
+        scan_synth.DENSE_MAX = 0
+        sparse = scan_synth.energy_first_return(t, cos, hit, 0.02, 0.02, run, span=span)
+    finally:
+        scan_synth.DENSE_MAX = old
+    assert np.array_equal(dense, sparse)
+
+
+def test_energy_first_return_finds_a_comb_within_the_span() -> None:
+    from classify.scan_synth import energy_first_return
+
+    # one beam, three rays striking a level top 4 bins apart (a comb): no two bins in a row
+    t = np.array([[[4.005], [4.085], [4.165]]])
+    cos = np.ones_like(t)
+    hit = np.isfinite(t)
+    assert np.isinf(energy_first_return(t, cos, hit, 0.1, 0.02, 2)[0, 0])  # consecutive bins: nothing
+    assert energy_first_return(t, cos, hit, 0.1, 0.02, 2, span=5)[0, 0] == pytest.approx(4.01)  # the first tooth
+    assert np.isinf(energy_first_return(t[:, :1], cos[:, :1], hit[:, :1], 0.1, 0.02, 2, span=5)[0, 0])  # alone

@@ -130,10 +130,10 @@ def test_no_nan_for_any_pose(tilt: float, yaw: float, pitch: float, roll: float,
 
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**31), st.integers(0, 5), st.integers(1, 40), st.integers(1, 12), st.integers(1, 3),
-       st.sampled_from(["random", "wide", "edges"]))
+       st.sampled_from(["random", "wide", "edges"]), st.integers(0, 9))
 def test_skip_search_equals_full_search(seed: int, n_frames: int, n_bins: int, n_beams: int, run: int,
-                                        limit_kind: str) -> None:
-    """The per-column skip finds exactly the returns of the full search, for any limits and run length."""
+                                        limit_kind: str, span: int) -> None:
+    """The per-column skip finds exactly the returns of the full search, for any limits, run and span."""
     rng = np.random.default_rng(seed)
     imgs = rng.integers(0, 256, (n_frames, n_bins, n_beams)).astype(np.uint8)
     imgs[rng.random(imgs.shape) < 0.7] //= 4  # mostly dim, some bright runs
@@ -145,8 +145,8 @@ def test_skip_search_equals_full_search(seed: int, n_frames: int, n_bins: int, n
         limits = rng.choice([0, 1, n_bins - 1, n_bins], (n_frames, n_beams))
     thr = rng.uniform(20, 120, n_frames)
     before = imgs.copy()
-    a = first_returns(imgs, limits.astype(np.int64), thr, HighlightConfig(skip=True, min_run=run))
-    b = first_returns(imgs, limits.astype(np.int64), thr, HighlightConfig(skip=False, min_run=run))
+    a = first_returns(imgs, limits.astype(np.int64), thr, HighlightConfig(skip=True, min_run=run), span or None)
+    b = first_returns(imgs, limits.astype(np.int64), thr, HighlightConfig(skip=False, min_run=run), span or None)
     assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
     assert np.array_equal(imgs, before)  # the caller's frames are never written
 
@@ -179,3 +179,19 @@ def test_extracted_point_matches_independent_geometry(
         p_b = np.array(lever) + r * np.array([np.cos(e) * np.cos(theta), np.cos(e) * np.sin(theta), np.sin(e)])
         truth = highlight_point(0.0, 0.0, tilt=0.0, spread=0.0, position=pos[0], ypr=(yaw, pitch, roll), lever=p_b)
     assert np.abs(hp.points[0] - truth).max() < 1e-6, (hp.points[0], truth)
+
+
+def test_a_comb_of_returns_is_one_return_and_a_lone_pixel_is_none() -> None:
+    """A level top seen by a fan of discrete rays returns single bright bins a few bins apart: with the span
+    rule its first tooth is the return; consecutive bins (no span) miss it; one bright pixel alone is speckle."""
+    img = np.full((1, 512, 96), 40, np.uint8)
+    img[0, 200:240:4, 10] = 180  # a comb: every 4th bin (0.08 m at 0.02 m bins)
+    img[0, 150, 20] = 200  # a lone pixel
+    limits = np.full((1, 96), 300, np.int64)
+    thr = np.array([100.0])
+    cfg = HighlightConfig()
+    span = max(cfg.min_run, round(cfg.run_span_m / 0.02))
+    fi, bi, ri = first_returns(img, limits, thr, cfg, span)
+    assert bi.tolist() == [10] and ri.tolist() == [200]
+    assert first_returns(img, limits, thr, cfg)[0].size == 0  # consecutive bins only
+    assert first_returns(img, np.full((1, 96), 200, np.int64), thr, cfg, span)[0].size == 0  # past the onset
