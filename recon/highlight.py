@@ -86,6 +86,16 @@ def _starts(above: NDArray[np.bool_], n_valid: int, run: int, span: int) -> NDAr
     first = above[:, :n_valid]
     if run <= 1:
         return first
+    if run == 2:  # any of the next span - 1 bins: a sliding OR by doubling (log2(span) passes, not span)
+        w = span - 1
+        nxt = np.zeros((above.shape[0], n_valid + w - 1, above.shape[2]), bool)
+        tail = above[:, 1 : n_valid + w]
+        nxt[:, : tail.shape[1]] = tail
+        k = 1
+        while 2 * k <= w:
+            nxt = nxt[:, :-k] | nxt[:, k:]
+            k *= 2
+        return first & (nxt[:, :n_valid] | nxt[:, w - k : w - k + n_valid])
     count = first.astype(np.uint8)
     for k in range(1, span):
         m = min(n_valid, above.shape[1] - k)
