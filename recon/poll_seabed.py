@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from recon.cluster import DetectedObject
+from recon.cluster import DetectedObject, make_object
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_texture import TexturedSeabed
 
@@ -66,17 +66,19 @@ def on_seabed(objects: list[DetectedObject], model: TexturedSeabed | SeabedModel
               min_height: float, rejected: dict[str, int]) -> list[DetectedObject]:
     """The objects with their seabed depth (median of the tiled planes under their points: the texture grid
     may pass over part of a large object), less the clusters that are not objects (counted in ``rejected``:
-    ``too_wide``, ``too_low``)."""
+    ``too_wide`` (unless its core is an object: :func:`_core`), ``too_low``)."""
     if isinstance(model, TexturedSeabed):  # a smooth seabed (low threshold) lets lower tops stand out
         min_height = float(np.clip(TOP_OVER_THRESHOLD * model.min_height(0.0), LOWEST_TOP_M, min_height))
     out = []
     for o in objects:
-        wide = float(np.max(o.points[:, :2].max(axis=0) - o.points[:, :2].min(axis=0)))
-        if wide > max_extent:
-            rejected["too_wide"] = rejected.get("too_wide", 0) + 1
-            continue
-        if model is not None:
-            planes = model.coarse if isinstance(model, TexturedSeabed) else model
+        planes = None if model is None else model.coarse if isinstance(model, TexturedSeabed) else model
+        if _width(o.points) > max_extent:
+            core = None if planes is None else _core(o, planes, max_extent)
+            if core is None:
+                rejected["too_wide"] = rejected.get("too_wide", 0) + 1
+                continue
+            o = core
+        if planes is not None:
             ground = planes.depth_at(o.points[:, :2])
             if float(np.percentile(ground - o.points[:, 2], 95)) < min_height:
                 rejected["too_low"] = rejected.get("too_low", 0) + 1
@@ -84,3 +86,26 @@ def on_seabed(objects: list[DetectedObject], model: TexturedSeabed | SeabedModel
             o = replace(o, seabed_depth=float(np.median(ground)))
         out.append(o)
     return out
+
+
+def _width(points: F64) -> float:
+    """The larger horizontal side (m) of the points' bounding box."""
+    return float(np.max(points[:, :2].max(axis=0) - points[:, :2].min(axis=0)))
+
+
+#: a cluster wider than any object keeps its core, the points at least this fraction of its top above the planes,
+#: when that core is narrow enough: an object whose cluster reached out over low seabed points (a crest beside it, a
+#: patch of seabed the texture grid put too deep) stays an object instead of being dropped whole
+CORE_FRACTION = 0.5
+MIN_CORE_POINTS = 20
+
+
+def _core(o: DetectedObject, planes: SeabedModel, max_extent: float) -> DetectedObject | None:
+    """The core of a too-wide cluster (:data:`CORE_FRACTION`), or None when it is still too wide or too small."""
+    h = planes.depth_at(o.points[:, :2]) - o.points[:, 2]
+    keep = h >= CORE_FRACTION * float(np.percentile(h, 95))
+    if int(keep.sum()) < MIN_CORE_POINTS or _width(o.points[keep]) > max_extent:
+        return None
+    times = o.times[keep] if o.times.shape[0] == o.points.shape[0] else np.full(int(keep.sum()), o.t_first)
+    extra = o.extra[keep] if o.extra.shape[0] == o.points.shape[0] else None
+    return make_object(o.id, o.points[keep], times, extra, o.passes)

@@ -79,3 +79,24 @@ def test_far_from_origin() -> None:
     model = SeabedModel.fit(np.concatenate([seabed, obj]) + off)
     assert object_mask(obj + off, model).mean() > 0.97
     assert object_mask(near + off, model).mean() < 0.01
+
+
+def test_a_too_wide_cluster_keeps_an_object_core_and_a_crest_field_is_dropped() -> None:
+    """recon.poll_seabed.on_seabed: a box (0.6 m high) whose cluster reached out over 5 m of low seabed points
+    keeps the box; a field of crests 6 m wide, all about as high, is still no object."""
+    from recon.cluster import make_object
+    from recon.poll_seabed import on_seabed
+
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(-20, 20, (4000, 2))
+    model = SeabedModel.fit(np.column_stack([xy, np.full(len(xy), 30.0)]), SeabedConfig())
+    box = np.column_stack([rng.uniform(-0.5, 0.5, (400, 2)), 30.0 - rng.uniform(0.3, 0.6, 400)])
+    skirt = np.column_stack([rng.uniform(-5.0, 0.0, 60), rng.uniform(-0.3, 0.3, 60), 30.0 - rng.uniform(0.2, 0.25, 60)])
+    pts = np.concatenate([box, skirt])
+    field = np.column_stack([rng.uniform(-3, 3, (300, 2)), 30.0 - rng.uniform(0.2, 0.3, 300)])
+    objs = [make_object(0, pts, np.zeros(len(pts))), make_object(1, field, np.zeros(len(field)))]
+    rejected: dict[str, int] = {}
+    out = on_seabed(objs, model, 4.5, 0.15, rejected)
+    assert [o.id for o in out] == [0] and rejected == {"too_wide": 1}
+    assert out[0].extent[0] < 1.1 and out[0].n_points >= 390  # the box, without the skirt
+    assert out[0].seabed_depth == pytest.approx(30.0, abs=0.01)
