@@ -101,7 +101,7 @@ class SynthesisSettings:
     def span_bins(self) -> int:
         """``run_span_m`` in bins of ``bin_m`` (at least ``min_run``)."""
         run = max(1, self.min_run)
-        return max(run, int(round(self.run_span_m / self.bin_m))) if self.bin_m > 0 else run
+        return max(run, round(self.run_span_m / self.bin_m)) if self.bin_m > 0 else run
 
     @property
     def directions(self) -> list[tuple[float, float]]:

@@ -77,7 +77,7 @@ class HighlightPoints:
 def run_span_bins(cfg: HighlightConfig, bin_m: float) -> int:
     """The span of :attr:`HighlightConfig.run_span_m` in bins of ``bin_m`` m (at least ``min_run``)."""
     run = max(1, cfg.min_run)
-    return max(run, int(round(cfg.run_span_m / bin_m))) if bin_m > 0 else run
+    return max(run, round(cfg.run_span_m / bin_m)) if bin_m > 0 else run
 
 
 def _starts(above: NDArray[np.bool_], n_valid: int, run: int, span: int) -> NDArray[np.bool_]:

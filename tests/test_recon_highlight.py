@@ -191,7 +191,7 @@ def test_a_comb_of_returns_is_one_return_and_a_lone_pixel_is_none() -> None:
     thr = np.array([100.0])
     cfg = HighlightConfig()
     span = max(cfg.min_run, round(cfg.run_span_m / 0.02))
-    fi, bi, ri = first_returns(img, limits, thr, cfg, span)
+    _, bi, ri = first_returns(img, limits, thr, cfg, span)
     assert bi.tolist() == [10] and ri.tolist() == [200]
     assert first_returns(img, limits, thr, cfg)[0].size == 0  # consecutive bins only
     assert first_returns(img, np.full((1, 96), 200, np.int64), thr, cfg, span)[0].size == 0  # past the onset
