@@ -66,7 +66,7 @@ def test_clutter_clusters_look_like_recon_clutter() -> None:
     detections): 26-292 points, 0.3-4.4 m across, 95th-percentile height 0.14-0.43 m."""
     cfg = ReconConfig()
     found: list[tuple[np.ndarray, float]] = []
-    for i in range(40):
+    for i in range(80):  # with the span rule of recon.highlight ~1 patch in 6 leaves a cluster (6 by the ~50th)
         got, heading, tilt = clutter_clouds(SETTINGS, np.random.default_rng([77, i]), cfg)
         assert 0.0 <= heading < 360.0 and 20.0 <= tilt <= 45.0
         found += got
