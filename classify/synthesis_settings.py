@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from recon.highlight import span_bins
+
 
 def _default_tilts() -> tuple[float, ...]:
     return tuple(float(round(t, 4)) for t in np.linspace(20.0, 45.0, 4))
@@ -99,9 +101,8 @@ class SynthesisSettings:
 
     @property
     def span_bins(self) -> int:
-        """``run_span_m`` in bins of ``bin_m`` (at least ``min_run``)."""
-        run = max(1, self.min_run)
-        return max(run, round(self.run_span_m / self.bin_m)) if self.bin_m > 0 else run
+        """``run_span_m`` in bins of ``bin_m`` (at least ``min_run``), as recon counts it."""
+        return span_bins(self.min_run, self.run_span_m, self.bin_m)
 
     @property
     def directions(self) -> list[tuple[float, float]]:

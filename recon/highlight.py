@@ -74,10 +74,16 @@ class HighlightPoints:
         return int(self.frame.shape[0])
 
 
+def span_bins(min_run: int, span_m: float, bin_m: float) -> int:
+    """``span_m`` of range in bins of ``bin_m`` m, at least ``min_run``: the span of the return rule (the module
+    doc), shared with the classifier's synthesis (:attr:`classify.synthesis_settings.SynthesisSettings.span_bins`)."""
+    run = max(1, min_run)
+    return max(run, round(span_m / bin_m)) if bin_m > 0 else run
+
+
 def run_span_bins(cfg: HighlightConfig, bin_m: float) -> int:
     """The span of :attr:`HighlightConfig.run_span_m` in bins of ``bin_m`` m (at least ``min_run``)."""
-    run = max(1, cfg.min_run)
-    return max(run, round(cfg.run_span_m / bin_m)) if bin_m > 0 else run
+    return span_bins(cfg.min_run, cfg.run_span_m, bin_m)
 
 
 def _starts(above: NDArray[np.bool_], n_valid: int, run: int, span: int) -> NDArray[np.bool_]:

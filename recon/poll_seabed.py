@@ -69,9 +69,9 @@ def on_seabed(objects: list[DetectedObject], model: TexturedSeabed | SeabedModel
     ``too_wide`` (unless its core is an object: :func:`_core`), ``too_low``)."""
     if isinstance(model, TexturedSeabed):  # a smooth seabed (low threshold) lets lower tops stand out
         min_height = float(np.clip(TOP_OVER_THRESHOLD * model.min_height(0.0), LOWEST_TOP_M, min_height))
+    planes = None if model is None else model.coarse if isinstance(model, TexturedSeabed) else model
     out = []
     for o in objects:
-        planes = None if model is None else model.coarse if isinstance(model, TexturedSeabed) else model
         if _width(o.points) > max_extent:
             core = None if planes is None else _core(o, planes, max_extent)
             if core is None:

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from recon.errors import GeometryError
 from recon.frames import attitude
-from recon.highlight import HighlightConfig, extract, first_returns, frame_thresholds
+from recon.highlight import HighlightConfig, extract, first_returns, frame_thresholds, run_span_bins
 from recon.sonar_geometry import SonarGeometry
 from recon.synthetic import Box, Scene, render, surface_distance
 
@@ -190,7 +190,7 @@ def test_a_comb_of_returns_is_one_return_and_a_lone_pixel_is_none() -> None:
     limits = np.full((1, 96), 300, np.int64)
     thr = np.array([100.0])
     cfg = HighlightConfig()
-    span = max(cfg.min_run, round(cfg.run_span_m / 0.02))
+    span = run_span_bins(cfg, 0.02)  # 0.25 m in 0.02 m bins: 12
     _, bi, ri = first_returns(img, limits, thr, cfg, span)
     assert bi.tolist() == [10] and ri.tolist() == [200]
     assert first_returns(img, limits, thr, cfg)[0].size == 0  # consecutive bins only
