@@ -127,6 +127,22 @@ def rdi_instrument_mounting(lever_arm: ArrayLike = (0.0, 0.0, 0.0), heading_misa
     return Mounting.from_rotation(rot, lever_arm)
 
 
+def dvl_seabed_offsets(rot_wb: Rotation, altitude: ArrayLike, mounting: Mounting) -> F64:
+    """World offsets (N, 3) NED m from the body origin to the seabed point a DVL's ``altitude`` (N,) m measures.
+
+    A DVL's altitude is the mean of its beams' ranges projected on the axis of its beam cone (RDI: each beam's
+    "vertical" range, in the instrument frame), so it is the distance to the seabed along that axis, which turns
+    with the vehicle: the seabed point is lever + altitude x axis, in B, rotated by the attitude ``rot_wb``. A
+    vehicle that pitches with a 10 deg slope measures the distance normal to the seabed; taken as vertical, the
+    seabed points lay ``altitude (1 - cos 10 deg)`` = 0.09 m too shallow at 6 m (measured on random surveys).
+    The axis is the instrument Z axis in B, turned to point down (RDI's Z is up for a down-looking unit)."""
+    axis = mounting.rotation.apply(np.array([0.0, 0.0, 1.0]))
+    axis = axis if axis[2] >= 0.0 else -axis
+    a = np.asarray(altitude, dtype=np.float64).reshape(-1)
+    body = mounting.lever[None, :] + a[:, None] * axis[None, :]
+    return np.asarray(rot_wb.apply(body), dtype=np.float64).reshape(-1, 3)
+
+
 def rdi_ship_to_body(v: ArrayLike) -> F64:
     """RDI ship (starboard, forward, up) vectors -> FRD (forward, starboard, down)."""
     a = np.asarray(v, dtype=np.float64)

@@ -35,7 +35,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from recon.errors import NavigationError
-from recon.frames import Mounting, VelocityFrame, attitude, rdi_earth_to_ned, rdi_instrument_mounting, to_body
+from recon.frames import (
+    Mounting,
+    VelocityFrame,
+    attitude,
+    dvl_seabed_offsets,
+    rdi_earth_to_ned,
+    rdi_instrument_mounting,
+    to_body,
+)
 from recon.trajectory import Trajectory
 
 F64 = NDArray[np.float64]
@@ -262,8 +270,10 @@ def dead_reckon(dvl: DvlSamples, gyro: GyroSamples, depth: DepthSamples,
         k = np.searchsorted(taa, grid, side="right") - 1
         fresh = (k >= 0) & (grid - taa[np.clip(k, 0, None)] <= cfg.dropout_hold_s)
         altitude = np.where(fresh, np.interp(grid, taa, alt[aok]), np.nan)
+        offsets = dvl_seabed_offsets(rot, altitude, cfg.dvl_mounting)
         if np.any(lever):
             altitude = altitude + rot.apply(lever)[:, 2]
+        return Trajectory(grid, pos, rot, degraded=degraded, altitude=altitude, seabed_offsets=offsets)
     return Trajectory(grid, pos, rot, degraded=degraded, altitude=altitude)
 
 

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from recon.errors import NavigationError
-from recon.frames import attitude
+from recon.frames import attitude, dvl_seabed_offsets
 from recon.nav import DepthSamples, DvlSamples, GyroSamples, NavConfig, pressure_to_depth
 from recon.nav_stream_lib import Grow, body_velocity, level, rate_like, turn, zoh
 
@@ -295,7 +295,8 @@ class CausalNavigator:
         return np.asarray(alt, dtype=np.float64)
 
     def take_seabed_points(self, until: float = np.inf, max_pitch: float = np.inf) -> F64:
-        """Seabed points (position + altitude down) of the grid rows up to ``until`` not taken yet, less those
+        """Seabed points (position + the DVL's offset to the seabed, :func:`recon.frames.dvl_seabed_offsets`) of
+        the grid rows up to ``until`` not taken yet, less those
         while the vehicle pitched more than ``max_pitch`` rad (diving or climbing, the altitude far from the
         seabed under the vehicle: it put the regional seabed plane metres off)."""
         end = int(np.searchsorted(self.grid.view[:, T], until, side="right"))
@@ -304,9 +305,8 @@ class CausalNavigator:
         h = h[np.isfinite(h[:, ALT]) & (np.abs(h[:, PITCH]) <= max_pitch)]
         if not h.shape[0]:
             return np.zeros((0, 3))
-        pos, _ = self.pose_at(h[:, T])
-        pos[:, 2] += self.altitude_at(h[:, T])
-        return pos
+        pos, rot = self.pose_at(h[:, T])
+        return np.asarray(pos + dvl_seabed_offsets(rot, h[:, ALT], self.config.dvl_mounting), dtype=np.float64)
 
     def positions(self, step: int = 1) -> tuple[F64, F64]:
         """Grid times and positions (every ``step``-th row), e.g. for a map."""

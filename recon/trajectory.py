@@ -24,7 +24,9 @@ class Trajectory:
     """Samples of the vehicle pose, strictly increasing in time.
 
     ``degraded[i]`` flags a pose built without fresh DVL velocity (dropout longer than the hold
-    time) or across a sensor gap; ``altitude`` is metres above the seabed (NaN where unknown).
+    time) or across a sensor gap; ``altitude`` is metres above the seabed (NaN where unknown);
+    ``seabed_offsets`` (optional, (n, 3) NED m) go from each position to the seabed point the DVL measured
+    (:func:`recon.frames.dvl_seabed_offsets`), where the altitude alone would put it straight below.
     """
 
     times: F64
@@ -32,6 +34,7 @@ class Trajectory:
     rotations: Rotation
     degraded: NDArray[np.bool_] | None = None
     altitude: F64 | None = None
+    seabed_offsets: F64 | None = None
     _slerp: Slerp = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -52,6 +55,8 @@ class Trajectory:
         alt = np.full(n, np.nan) if self.altitude is None else np.asarray(self.altitude, dtype=np.float64)
         if deg.shape != (n,) or alt.shape != (n,):
             raise NavigationError("degraded and altitude must have one value per sample")
+        if self.seabed_offsets is not None and np.shape(self.seabed_offsets) != (n, 3):
+            raise NavigationError(f"seabed_offsets must be ({n}, 3), got {np.shape(self.seabed_offsets)}")
         object.__setattr__(self, "times", t)
         object.__setattr__(self, "positions", p)
         object.__setattr__(self, "degraded", deg)
@@ -110,10 +115,14 @@ class Trajectory:
         return np.where(exact, deg[i], deg[i] | deg[i + 1])
 
     def seabed_points(self) -> F64:
-        """Seabed points under the vehicle: position + altitude along NED down, where known."""
+        """Seabed points the DVL measured, where known: position + ``seabed_offsets``, else + altitude along NED
+        down."""
         alt = self.altitude
         assert alt is not None
         ok = np.isfinite(alt)
+        if self.seabed_offsets is not None:
+            ok &= np.all(np.isfinite(self.seabed_offsets), axis=1)
+            return np.asarray(self.positions[ok] + self.seabed_offsets[ok], dtype=np.float64)
         pts = self.positions[ok].copy()
         pts[:, 2] += alt[ok]
         return pts
@@ -121,4 +130,5 @@ class Trajectory:
     def shifted(self, offset: ArrayLike) -> Trajectory:
         """The same trajectory translated by ``offset`` (NED metres); for tests and tiling."""
         off = np.asarray(offset, dtype=np.float64).reshape(1, 3)
-        return Trajectory(self.times, self.positions + off, self.rotations, self.degraded, self.altitude)
+        return Trajectory(self.times, self.positions + off, self.rotations, self.degraded, self.altitude,
+                          self.seabed_offsets)
