@@ -270,11 +270,10 @@ def dead_reckon(dvl: DvlSamples, gyro: GyroSamples, depth: DepthSamples,
         k = np.searchsorted(taa, grid, side="right") - 1
         fresh = (k >= 0) & (grid - taa[np.clip(k, 0, None)] <= cfg.dropout_hold_s)
         altitude = np.where(fresh, np.interp(grid, taa, alt[aok]), np.nan)
-        offsets = dvl_seabed_offsets(rot, altitude, cfg.dvl_mounting)
-        if np.any(lever):
-            altitude = altitude + rot.apply(lever)[:, 2]
-        return Trajectory(grid, pos, rot, degraded=degraded, altitude=altitude, seabed_offsets=offsets)
-    return Trajectory(grid, pos, rot, degraded=degraded, altitude=altitude)
+    offsets = dvl_seabed_offsets(rot, altitude, cfg.dvl_mounting)  # the altitude as the DVL measured it (NaN: none)
+    if np.any(lever):
+        altitude = altitude + rot.apply(lever)[:, 2]
+    return Trajectory(grid, pos, rot, degraded=degraded, altitude=altitude, seabed_offsets=offsets)
 
 
 def _body_rate(t: F64, tg: F64, g2: F64, kind: str) -> F64:
