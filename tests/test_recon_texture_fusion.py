@@ -8,7 +8,7 @@ import pytest
 from recon.cluster import ClusterConfig, StreamingClusterer
 from recon.fusion import FusionConfig, ObjectStore, align_offset
 from recon.seabed import SeabedConfig, SeabedModel
-from recon.seabed_texture import SeabedCells, TextureConfig, fit_textured
+from recon.seabed_texture import SeabedCells, TextureConfig, fit_textured, local_level
 
 
 def rough_depth(ne: np.ndarray, rms: float, seed: int = 3) -> np.ndarray:
@@ -54,6 +54,55 @@ def test_textured_seabed_follows_the_texture_and_passes_under_objects(rms: float
         h = model.height_above(c)
         assert np.percentile(h, 95) > 0.7 * size[2]  # the object is not absorbed into the seabed
     assert model.sigma < 0.05 + 0.6 * rms
+
+
+def test_local_level_is_the_plane_of_a_one_sided_neighbourhood() -> None:
+    """A tilted residual seen on one side of a cell only (a swath's edge): the plane through the neighbourhood
+    gives the cell's own level, the mean is off by the slope times the distance to the cells' centroid."""
+    i, j = np.meshgrid(np.arange(40.0), np.arange(30.0), indexing="ij")
+    r = 0.02 * i - 0.01 * j + 0.3
+    use = (j < 15) | (j > 22)  # a gap: the cells beside it see their neighbourhood on one side
+    plane = local_level(r, use, 13, ridge=0.1)
+    mean = local_level(r, use, 13, ridge=None)
+    gap = ~use & (i > 6) & (i < 33)
+    assert np.max(np.abs(plane - r)[gap]) < 0.003
+    assert np.max(np.abs(mean - r)[gap]) > 0.03
+    # a line of cells (one row): no slope across it, the plane along it
+    row = np.zeros_like(use)
+    row[:, 10] = True
+    flat = local_level(r, row, 13, ridge=0.1)
+    assert np.allclose(flat[5:35, 10], r[5:35, 10], atol=2e-3)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_half_pipe_on_a_sloped_swath_with_gaps_is_an_object(seed: int) -> None:
+    """A 0.3 m high, 0.6 m wide half pipe on an 8 deg slope (0.03 m rms texture) seen by swaths with gaps between
+    them, over planes that leave a tilt (here the whole slope: a level plane): its cells are object cells (the
+    threshold follows the texture, not the planes' tilt) and its top stands out of the model by most of its
+    height; no seabed point does."""
+    rng = np.random.default_rng(seed)
+    ne = np.column_stack([rng.uniform(0, 40, 60_000), rng.uniform(0, 24, 60_000)])
+    ne = ne[(ne[:, 1] % 8.0) < 6.0]  # 2 m gaps between the swaths
+    slope = np.tan(np.radians(8.0))
+
+    def ground(q: np.ndarray) -> np.ndarray:
+        return rough_depth(q, 0.03, seed) + slope * (0.6 * q[:, 0] + 0.8 * q[:, 1]) - np.tan(np.radians(3.0)) * q[:, 0]
+
+    sea = np.column_stack([ne, ground(ne) + rng.normal(0, 0.01, ne.shape[0])])
+    v = rng.uniform(-0.3, 0.3, 600)
+    u = rng.uniform(-1.5, 1.5, 600)
+    hp = np.column_stack([20.0 + u, 9.0 + v, np.zeros(600)])
+    hp[:, 2] = ground(hp) - np.sqrt(np.maximum(0.09 - v * v, 0.0))
+    cells = SeabedCells(0.5)
+    cells.add(sea)
+    cells.add(hp)
+    level = np.column_stack([sea[::20, :2], np.full(sea[::20].shape[0], np.mean(sea[:, 2]))])
+    coarse = SeabedModel.fit(level, SeabedConfig())
+    model = fit_textured(cells, coarse, np.array([0.0, 0.0]), np.array([40.0, 24.0]), TextureConfig())
+    assert model.level_sigma < 0.05
+    top = hp[np.abs(v) < 0.15]
+    assert np.median(model.height_above(top)) > 0.2
+    assert np.percentile(model.height_above(sea), 99) < model.min_height(0.05) + 0.05
 
 
 def test_align_offset_recovers_a_shift_between_views() -> None:
