@@ -59,6 +59,7 @@ class TextureConfig:
     iterations: int = 3  # rounds of: level of the seabed cells around, object cells out
     level: Literal["plane", "mean"] = "plane"  # the neighbourhood's level at a cell: a fitted plane, or the mean
     level_ridge: float = 0.1  # cells^2: pulls the neighbourhood plane's slope to 0 where its cells do not span it
+    level_min_fill: float = 0.6  # the plane needs this share of the window's cells as seabed cells; fewer: the mean
     sigma_floor: float = 0.02  # m: floor of that sigma (a smooth seabed)
     min_count: int = 2  # samples for a cell to count
     grow_m: float = 1.0  # m: object cells grow by this much (an object's flanks are lower than its top)
@@ -189,13 +190,14 @@ class TexturedSeabed:
         return max(floor, min(self.config.k_sigma * self.sigma, self.config.max_threshold))
 
 
-def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None) -> F64:
+def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None, min_fill: float = 0.0) -> F64:
     """Level of the grid ``r`` (nx, ny) at each cell from the cells ``use`` of the ``size`` x ``size`` window
     around it: the least-squares plane through them evaluated at the cell (``ridge`` (cells^2) x their count
     added to the slope terms' normal equations: a window whose cells lie on a line or a point gets a flat
     plane along the directions they do not span), or their mean (``ridge`` None). Windows without a cell of
-    ``use`` take the median of all of them. Vectorized: window sums of the moments (``uniform_filter``) and one
-    batched 3 x 3 solve."""
+    ``use`` take the median of all of them, windows with less than ``min_fill`` of their cells in ``use`` the mean
+    (a plane through a few cells at a survey's first seconds extrapolates their texture). Vectorized: window
+    sums of the moments (``uniform_filter``) and one batched 3 x 3 solve."""
     fallback = float(np.median(r[use]))
     w = use.astype(np.float64)
     rw = np.where(use, r, 0.0)
@@ -219,7 +221,8 @@ def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None) 
     a += np.eye(3) * 1e-9
     b = np.stack([sr, sxr - x * sr, syr - y * sr], -1)
     level = np.linalg.solve(a, b[..., None])[..., 0, 0]
-    return np.where(s0 > 1e-9, level, fallback)
+    mean = np.where(s0 > 1e-9, sr / np.maximum(s0, 1e-9), fallback)
+    return np.where(s0 >= max(min_fill, 1e-9), level, mean)
 
 
 def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: ArrayLike,
@@ -251,7 +254,7 @@ def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: Arr
             break
         # the level of the seabed cells of the window: empty cells (a narrow swath, the shadows behind objects)
         # and the object cells found so far do not count
-        med = local_level(r, use, size, config.level_ridge if config.level == "plane" else None)
+        med = local_level(r, use, size, config.level_ridge if config.level == "plane" else None, config.level_min_fill)
         d = r - med
         dv = d[use]
         if dv.size >= 8:

@@ -77,9 +77,8 @@ def test_local_level_is_the_plane_of_a_one_sided_neighbourhood() -> None:
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_a_half_pipe_on_a_sloped_swath_with_gaps_is_an_object(seed: int) -> None:
     """A 0.3 m high, 0.6 m wide half pipe on an 8 deg slope (0.03 m rms texture) seen by swaths with gaps between
-    them, over planes that leave a tilt (here the whole slope: a level plane): its cells are object cells (the
-    threshold follows the texture, not the planes' tilt) and its top stands out of the model by most of its
-    height; no seabed point does."""
+    them, over planes that leave a tilt (3 deg: tiled planes follow the texture of their tiles): its cells are
+    object cells and its top stands out of the model by most of its height; no seabed point does."""
     rng = np.random.default_rng(seed)
     ne = np.column_stack([rng.uniform(0, 40, 60_000), rng.uniform(0, 24, 60_000)])
     ne = ne[(ne[:, 1] % 8.0) < 6.0]  # 2 m gaps between the swaths
@@ -96,7 +95,8 @@ def test_a_half_pipe_on_a_sloped_swath_with_gaps_is_an_object(seed: int) -> None
     cells = SeabedCells(0.5)
     cells.add(sea)
     cells.add(hp)
-    level = np.column_stack([sea[::20, :2], np.full(sea[::20].shape[0], np.mean(sea[:, 2]))])
+    tilt = np.tan(np.radians(3.0)) * (0.6 * sea[::20, 0] - 0.8 * sea[::20, 1])
+    level = np.column_stack([sea[::20, :2], sea[::20, 2] + tilt])
     coarse = SeabedModel.fit(level, SeabedConfig())
     model = fit_textured(cells, coarse, np.array([0.0, 0.0]), np.array([40.0, 24.0]), TextureConfig())
     assert model.level_sigma < 0.05
