@@ -206,8 +206,9 @@ def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None, 
         return np.asarray(uniform_filter(a, size=size, mode="constant"), np.float64)
 
     s0, sr = wsum(w), wsum(rw)
+    mean = np.where(s0 > 1e-9, sr / np.maximum(s0, 1e-9), fallback)
     if ridge is None:
-        return np.where(s0 > 1e-9, sr / np.maximum(s0, 1e-9), fallback)
+        return mean
     x, y = np.meshgrid(np.arange(r.shape[0], dtype=np.float64), np.arange(r.shape[1], dtype=np.float64),
                        indexing="ij")
     sx, sy, sxx, sxy, syy = wsum(w * x), wsum(w * y), wsum(w * x * x), wsum(w * x * y), wsum(w * y * y)
@@ -221,7 +222,6 @@ def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None, 
     a += np.eye(3) * 1e-9
     b = np.stack([sr, sxr - x * sr, syr - y * sr], -1)
     level = np.linalg.solve(a, b[..., None])[..., 0, 0]
-    mean = np.where(s0 > 1e-9, sr / np.maximum(s0, 1e-9), fallback)
     return np.where(s0 >= max(min_fill, 1e-9), level, mean)
 
 

@@ -96,8 +96,8 @@ def test_a_half_pipe_on_a_sloped_swath_with_gaps_is_an_object(seed: int) -> None
     cells.add(sea)
     cells.add(hp)
     tilt = np.tan(np.radians(3.0)) * (0.6 * sea[::20, 0] - 0.8 * sea[::20, 1])
-    level = np.column_stack([sea[::20, :2], sea[::20, 2] + tilt])
-    coarse = SeabedModel.fit(level, SeabedConfig())
+    tilted = np.column_stack([sea[::20, :2], sea[::20, 2] + tilt])  # what the planes are fitted to
+    coarse = SeabedModel.fit(tilted, SeabedConfig())
     model = fit_textured(cells, coarse, np.array([0.0, 0.0]), np.array([40.0, 24.0]), TextureConfig())
     assert model.level_sigma < 0.05
     top = hp[np.abs(v) < 0.15]
