@@ -12,15 +12,18 @@ of squares of depth, so memory is bounded by the area surveyed, not the number o
 depth above the tiled planes, compared with the level of its neighbourhood (``window_m`` on each
 side): a plane fitted by least squares to the neighbourhood's seabed cells (cells without samples, in a narrow
 swath or an object's shadow, do not count), evaluated at the cell (:func:`local_level`), recomputed ``iterations``
-times without the object cells found. A plane, not the mean: the tiled planes leave a residual that tilts
-within a neighbourhood (each tile's plane follows the texture of its 6 m, and their blend is no plane), and a
-neighbourhood covered on one side only (a swath's edge, gaps) then puts the mean of a tilted residual off the
-cell's level; on a 0.03 m rms seabed of 8 deg slope the cells' spread about the mean was 0.05-0.14 m and about the
-plane 0.03 m (the spread about the true plane without texture), so the object-cell threshold stood at 0.2-0.4 m
-and a 0.3 m half pipe went into the seabed.
+times without the object cells found. A plane, not the mean: a neighbourhood covered on one side only (a swath's
+edge, gaps) puts the mean of a tilted seabed off the cell's level (on a 0.03 m rms seabed of 8 deg slope the cells'
+spread about the mean was 0.05-0.14 m, about the plane 0.03 m, so the object-cell threshold stood at 0.2-0.4 m
+and a 0.3 m half pipe went into the seabed). The neighbourhood planes are fitted to the cell means less one
+plane through all of the box's cells, not less the tiled planes: each tile's plane follows the texture of its
+6 m and their blend bends where tiles meet, most at a survey's first seconds when few points set the tiles; a
+bend under a crest put it 3 sigma out of its neighbourhood's plane (a false object on a 0.07 m rms seabed).
 Objects stand out of their neighbourhood by far more than the texture does: a cell higher than
 the neighbourhood by ``clip_k`` robust sigmas of those differences (measured on the box, so the
-threshold follows the seabed at hand) is an object cell; object cells (grown by ``grow_m``: an object's
+threshold follows the seabed at hand; over all of its cells, the object cells of the last round too: a spread
+measured without the cells out beyond 3 sigma shrinks each round and the object cells grew over a crest) is an
+object cell; object cells (grown by ``grow_m``: an object's
 flanks stand lower than its top) and empty cells
 take the neighbourhood's level instead (the level recomputed without them). Depth at a point is the
 planes plus the bilinear interpolation of the cell residuals.
@@ -59,7 +62,6 @@ class TextureConfig:
     iterations: int = 3  # rounds of: level of the seabed cells around, object cells out
     level: Literal["plane", "mean"] = "plane"  # the neighbourhood's level at a cell: a fitted plane, or the mean
     level_ridge: float = 0.1  # cells^2: pulls the neighbourhood plane's slope to 0 where its cells do not span it
-    level_min_fill: float = 0.6  # the plane needs this share of the window's cells as seabed cells; fewer: the mean
     sigma_floor: float = 0.02  # m: floor of that sigma (a smooth seabed)
     min_count: int = 2  # samples for a cell to count
     grow_m: float = 1.0  # m: object cells grow by this much (an object's flanks are lower than its top)
@@ -190,15 +192,12 @@ class TexturedSeabed:
         return max(floor, min(self.config.k_sigma * self.sigma, self.config.max_threshold))
 
 
-def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None, min_fill: float = 0.0) -> F64:
+def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None) -> F64:
     """Level of the grid ``r`` (nx, ny) at each cell from the cells ``use`` of the ``size`` x ``size`` window
     around it: the least-squares plane through them evaluated at the cell (``ridge`` (cells^2) x their count
     added to the slope terms' normal equations: a window whose cells lie on a line or a point gets a flat
-    plane along the directions they do not span), or their mean (``ridge`` None). Windows without a cell of
-    ``use`` take the median of all of them, windows with less than ``min_fill`` of their cells in ``use`` the mean
-    (a plane through a few cells at a survey's first seconds extrapolates their texture). Vectorized: window
-    sums of the moments (``uniform_filter``) and one batched 3 x 3 solve."""
-    fallback = float(np.median(r[use]))
+    plane along the directions they do not span), or their mean (``ridge`` None). NaN where the window holds no
+    cell of ``use``. Vectorized: window sums of the moments (``uniform_filter``) and one batched 3 x 3 solve."""
     w = use.astype(np.float64)
     rw = np.where(use, r, 0.0)
 
@@ -206,9 +205,9 @@ def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None, 
         return np.asarray(uniform_filter(a, size=size, mode="constant"), np.float64)
 
     s0, sr = wsum(w), wsum(rw)
-    mean = np.where(s0 > 1e-9, sr / np.maximum(s0, 1e-9), fallback)
+    empty = s0 <= 1e-9
     if ridge is None:
-        return mean
+        return np.where(empty, np.nan, sr / np.maximum(s0, 1e-9))
     x, y = np.meshgrid(np.arange(r.shape[0], dtype=np.float64), np.arange(r.shape[1], dtype=np.float64),
                        indexing="ij")
     sx, sy, sxx, sxy, syy = wsum(w * x), wsum(w * y), wsum(w * x * x), wsum(w * x * y), wsum(w * y * y)
@@ -222,7 +221,20 @@ def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None, 
     a += np.eye(3) * 1e-9
     b = np.stack([sr, sxr - x * sr, syr - y * sr], -1)
     level = np.linalg.solve(a, b[..., None])[..., 0, 0]
-    return np.where(s0 >= max(min_fill, 1e-9), level, mean)
+    return np.where(empty, np.nan, level)
+
+
+def box_plane(depth: F64, use: NDArray[np.bool_]) -> F64:
+    """The least-squares plane through the cells ``use`` of the grid ``depth`` (nx, ny; m), at every cell (a
+    flat plane at their mean from fewer than 3 cells)."""
+    ij = np.argwhere(use).astype(np.float64)
+    z = depth[use]
+    centre = ij.mean(axis=0)
+    coef = np.zeros(2)
+    if ij.shape[0] >= 3:
+        coef = np.linalg.lstsq(ij - centre, z - z.mean(), rcond=None)[0]
+    i, j = np.meshgrid(np.arange(depth.shape[0]), np.arange(depth.shape[1]), indexing="ij")
+    return np.asarray(z.mean() + (i - centre[0]) * coef[0] + (j - centre[1]) * coef[1], np.float64)
 
 
 def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: ArrayLike,
@@ -244,6 +256,10 @@ def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: Arr
                + i0 + 0.5) * c
     base = coarse.depth_at(centres.reshape(-1, 2)).reshape(n.shape)
     r = mean - base  # + deeper than the planes
+    plane = config.level == "plane"
+    # the neighbourhood planes are fitted to the depth less one plane through the box (the tiles bend); the
+    # means to the depth less the tiles (a plane through a box of a curved seabed is off its level)
+    shift = box_plane(mean, ok) - base if plane and ok.any() else np.zeros(n.shape)
     size = 2 * max(1, round(config.window_m / c)) + 1
     objects = np.zeros(n.shape, bool)
     med = np.zeros(n.shape)
@@ -254,9 +270,10 @@ def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: Arr
             break
         # the level of the seabed cells of the window: empty cells (a narrow swath, the shadows behind objects)
         # and the object cells found so far do not count
-        med = local_level(r, use, size, config.level_ridge if config.level == "plane" else None, config.level_min_fill)
+        med = local_level(r - shift, use, size, config.level_ridge if plane else None) + shift
+        med = np.where(np.isnan(med), float(np.median(r[use])), med)  # no seabed cell within the window
         d = r - med
-        dv = d[use]
+        dv = d[ok]  # all cells: the spread of the seabed cells alone shrinks as the crests go to the objects
         if dv.size >= 8:
             sigma_c = max(config.sigma_floor, 1.4826 * float(np.median(np.abs(dv - np.median(dv)))))
         objects = ok & (d < -config.clip_k * sigma_c)  # higher than the neighbourhood: an object
