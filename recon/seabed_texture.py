@@ -61,7 +61,7 @@ class TextureConfig:
     clip_k: float = 3.0  # object cell: higher than its neighbourhood by this many robust sigmas
     iterations: int = 3  # rounds of: level of the seabed cells around, object cells out
     level: Literal["plane", "mean"] = "plane"  # the neighbourhood's level at a cell: a fitted plane, or the mean
-    level_ridge: float = 0.1  # cells^2: pulls the neighbourhood plane's slope to 0 where its cells do not span it
+    level_ridge: float = 0.1  # cells^2: pulls a window's plane to the box plane's slope where its cells do not span it
     sigma_floor: float = 0.02  # m: floor of that sigma (a smooth seabed)
     min_count: int = 2  # samples for a cell to count
     grow_m: float = 1.0  # m: object cells grow by this much (an object's flanks are lower than its top)
