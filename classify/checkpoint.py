@@ -5,7 +5,9 @@ Keys: ``format``, ``state_dict``, ``model_config`` (:class:`PointNetConfig`), ``
 ``n_points`` (points per cloud fed to the network), ``synthesis`` (:class:`SynthesisSettings`),
 ``train`` (:class:`TrainConfig`), ``metrics`` (any JSON-like dict), ``calibration`` (settings measured after
 training that inference applies: ``clutter_threshold``, the probability of ``clutter`` from which a cloud is
-called clutter; absent in older checkpoints, which load as before).
+called clutter; absent in older checkpoints, which load as before), ``members`` (optional: the state dicts of
+further models of the same config, trained from other seeds; inference averages their probabilities with the
+first's, :class:`classify.ensemble.Ensemble`).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ class Checkpoint:
     train: dict[str, Any] = field(default_factory=dict)
     metrics: dict[str, Any] = field(default_factory=dict)
     calibration: dict[str, Any] = field(default_factory=dict)
+    members: list[PointNet] = field(default_factory=list)  # further models (other seeds), averaged with ``model``
 
 
 def _plain(x: Any) -> Any:
@@ -48,16 +51,26 @@ def _plain(x: Any) -> Any:
 
 def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_points: int,
                     synthesis: dict[str, Any] | None = None, train: dict[str, Any] | None = None,
-                    metrics: dict[str, Any] | None = None, calibration: dict[str, Any] | None = None) -> Path:
+                    metrics: dict[str, Any] | None = None, calibration: dict[str, Any] | None = None,
+                    members: Sequence[PointNet] = ()) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
+    for m in members:
+        if m.cfg != model.cfg:
+            raise CheckpointError(f"an ensemble member's config {m.cfg} differs from the first's {model.cfg}")
+    doc = {"format": FORMAT, "state_dict": _state(model), "model_config": _plain(model.cfg.to_dict()),
+           "class_names": list(class_names), "n_points": int(n_points),
+           "synthesis": _plain(synthesis or {}), "train": _plain(train or {}),
+           "metrics": _plain(metrics or {}), "calibration": _plain(calibration or {})}
+    if members:
+        doc["members"] = [_state(m) for m in members]
     with atomic_path(path) as tmp:  # renamed when whole: an interrupted save never leaves half a checkpoint
-        torch.save({"format": FORMAT, "state_dict": state, "model_config": _plain(model.cfg.to_dict()),
-                    "class_names": list(class_names), "n_points": int(n_points),
-                    "synthesis": _plain(synthesis or {}), "train": _plain(train or {}),
-                    "metrics": _plain(metrics or {}), "calibration": _plain(calibration or {})}, tmp)
+        torch.save(doc, tmp)
     return path
+
+
+def _state(model: PointNet) -> dict[str, torch.Tensor]:
+    return {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
 
 
 def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> Checkpoint:
@@ -70,11 +83,13 @@ def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> Checkpoin
         raise CheckpointError(f"{path}: not a readable checkpoint: {exc}") from exc
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise CheckpointError(f"{path}: not an auvlink PointNet checkpoint (format {FORMAT!r} expected)")
+    models = []
     try:
-        model = PointNet(PointNetConfig.from_dict(d["model_config"]))
-        model.load_state_dict(d["state_dict"])
+        for state in [d["state_dict"], *d.get("members", [])]:
+            model = PointNet(PointNetConfig.from_dict(d["model_config"]))
+            model.load_state_dict(state)
+            models.append(model.to(device).eval())
     except (KeyError, RuntimeError, TypeError) as exc:
         raise CheckpointError(f"{path}: weights do not match the stored model config: {exc}") from exc
-    model.to(device).eval()
-    return Checkpoint(model, tuple(d["class_names"]), int(d["n_points"]), d.get("synthesis", {}),
-                      d.get("train", {}), d.get("metrics", {}), d.get("calibration", {}))
+    return Checkpoint(models[0], tuple(d["class_names"]), int(d["n_points"]), d.get("synthesis", {}),
+                      d.get("train", {}), d.get("metrics", {}), d.get("calibration", {}), models[1:])

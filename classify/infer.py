@@ -3,7 +3,8 @@
 ``Classifier.load(path).classify(points)`` takes one object's points ``(n, 3)`` in the world frame
 (NED, metres), subsamples them to the model's point count when there are more (a fixed-seed draw:
 same cloud, same answer), centres and scales them into the unit sphere as in training, and returns
-``(class_name, score)`` with the softmax probability as the score. A model trained on
+``(class_name, score)`` with the softmax probability as the score (a checkpoint of several models trained from other
+seeds, ``[train] members``: the mean of their probabilities). A model trained on
 seabed-referenced clouds (synthesis ``z_ref = "seabed"``) also takes the depth of the seabed under the
 object (``seabed_depth``, m, NED; recon fits it: :meth:`recon.pipeline.Reconstructor.seabed_depth_at`):
 the object's height above the seabed is then a feature. Without it, the cloud's deepest point stands
@@ -26,10 +27,11 @@ import numpy.typing as npt
 import torch
 
 from classify.checkpoint import Checkpoint, load_checkpoint
+from classify.ensemble import Ensemble
 from classify.errors import InvalidCloudError
 from classify.labels import CLUTTER
 from classify.normalize import normalize_cloud
-from classify.pointnet import default_device
+from classify.pointnet import PointNet, default_device
 
 DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "pointnet_default.pt"
 
@@ -69,7 +71,9 @@ class Classifier:
         self.checkpoint = ckpt
         self.scale_m = float(ckpt.synthesis.get("scale_m", 0.0) or 0.0)
         self.z_ref = str(ckpt.synthesis.get("z_ref", "mean") or "mean")
-        self.model = ckpt.model.to(self.device).fused().eval()
+        #: the network (an :class:`classify.ensemble.Ensemble` when the checkpoint holds several seeds' models)
+        self.model: PointNet | Ensemble = (Ensemble([ckpt.model, *ckpt.members]) if ckpt.members else ckpt.model
+                                           ).to(self.device).fused().eval()
         #: index of ``clutter`` among the outputs (None: a model without it)
         self.clutter_index = self.class_names.index(CLUTTER) if CLUTTER in self.class_names else None
         self.clutter_threshold = float(ckpt.calibration.get("clutter_threshold", 0.5))

@@ -42,6 +42,7 @@ class TrainConfig:
     dropout: float = 0.3
     seed: int = 0
     threads: int = 2
+    members: int = 1  # models trained from seeds seed, seed + 1, ...; inference averages them (classify.ensemble)
     augment: AugmentConfig = field(default_factory=AugmentConfig)
 
     def to_dict(self) -> dict[str, Any]:

@@ -4,7 +4,11 @@ train, evaluate on held-out synthesized clouds (other seed, headings, tilts and 
 --recon-eval``: clouds that recon reconstructs from simulated passes,
 :func:`auvlink.evaluation.recon_eval.recon_metrics`; evaluation only, never training data). With clutter in the
 synthesis (``clutter_clouds > 0``) the model gets a 9th output, ``clutter``, and its threshold is calibrated on the
-validation split (:func:`calibrate_clutter`) and stored in the checkpoint.
+validation split (:func:`calibrate_clutter`) and stored in the checkpoint. ``[train] members`` > 1: that many models
+trained alike from seeds ``seed``, ``seed + 1``, ... on the same clouds, saved as one checkpoint whose inference
+averages them (:mod:`classify.ensemble`); the clutter threshold is calibrated on the mean, over the first model's
+validation split (the others trained on part of it: the threshold sits a little lower than it would on unseen
+clouds).
 """
 
 from __future__ import annotations
@@ -88,25 +92,29 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
     data = synthesize_set(names, mesh_for, settings.synthesis, cache_dir, progress)
     t_syn = time.perf_counter() - t0
     result = train(data, settings.train, progress=progress)
+    others = [train(data, replace(settings.train, seed=settings.train.seed + k), progress=progress)
+              for k in range(1, max(1, settings.train.members))]
+    members = [r.model for r in others]
     held_settings = heldout_settings(settings.synthesis)
     held = synthesize_set(names, mesh_for, held_settings, cache_dir, progress)
     metrics: dict[str, Any] = {
-        "synthesis_seconds": t_syn, "train_seconds": result.seconds, "best_epoch": result.best_epoch,
+        "synthesis_seconds": t_syn, "train_seconds": result.seconds + sum(r.seconds for r in others),
+        "members": 1 + len(others), "best_epoch": result.best_epoch,
         "epochs_run": len(result.history), "val_accuracy": result.val_accuracy, "n_train_clouds": len(data),
         "history": result.history, "config_source": settings.source,
     }
     path = save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
-                           settings.train.to_dict(), metrics)
+                           settings.train.to_dict(), metrics, members=members)
     calibration = calibrate_clutter(Classifier.load(path), data.subset(result.val_idx))
     metrics["calibration"] = calibration
     path = save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
-                           settings.train.to_dict(), metrics, calibration)
+                           settings.train.to_dict(), metrics, calibration, members)
     report = evaluate_classifier(Classifier.load(path), held)
     metrics["heldout"] = {"settings": held_settings.to_dict(), **report.to_dict()}
     for key, check in (extra_evals or {}).items():
         metrics[key] = check(Classifier.load(path))
     save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
-                    settings.train.to_dict(), metrics, calibration)
+                    settings.train.to_dict(), metrics, calibration, members)
     return TrainOutcome(path, result, report, metrics)
 
 

@@ -200,3 +200,32 @@ def test_classifier_seabed_depth(tmp_path: Path) -> None:
     assert clf.classify(pts, 20.0) == clf.classify_many([pts], [20.0])[0]
     with pytest.raises(InvalidCloudError, match="seabed depths"):
         clf.probabilities([pts, pts], seabed_depths=[20.0])
+
+
+def test_ensemble_checkpoint_averages_its_members(tmp_path: Path) -> None:
+    """A checkpoint of three models (``[train] members``): they load back, and inference gives the mean of their
+    probabilities (not of their logits), the first's clutter threshold and class names."""
+    torch.manual_seed(0)
+    nets = [PointNet(PointNetConfig(num_classes=3, width=0.125)).eval() for _ in range(3)]
+    path = save_checkpoint(tmp_path / "ens.pt", nets[0], ("a", "b", "c"), 64, {}, {}, {}, {"clutter_threshold": 0.7},
+                           members=nets[1:])
+    ck = load_checkpoint(path)
+    assert len(ck.members) == 2
+    x = torch.randn(5, 64, 3)
+    with torch.no_grad():
+        for a, b in zip(nets, [ck.model, *ck.members], strict=True):
+            assert torch.equal(a(x)[0], b(x)[0])
+    clf = Classifier.load(path, device=torch.device("cpu"))
+    assert clf.clutter_threshold == 0.7 and clf.model.cfg.width == 0.125
+    clouds = [c.astype(np.float64) for c in x.numpy()]  # 64 points each: prepare only centres and scales them
+    got = clf.probabilities(clouds)
+    prepared = torch.from_numpy(np.stack([clf.prepare(c) for c in clouds]))
+    with torch.no_grad():
+        mean = torch.stack([torch.softmax(n(prepared)[0], dim=1) for n in nets]).mean(dim=0).numpy()
+    np.testing.assert_allclose(got, mean, atol=1e-5)
+    np.testing.assert_allclose(got.sum(axis=1), 1.0, atol=1e-5)
+    single = Classifier.load(save_checkpoint(tmp_path / "one.pt", nets[0], ("a", "b", "c"), 64), torch.device("cpu"))
+    assert not np.allclose(single.probabilities(clouds), got, atol=1e-4)
+    wide = PointNet(PointNetConfig(num_classes=3, width=0.25))
+    with pytest.raises(CheckpointError, match="config"):
+        save_checkpoint(tmp_path / "bad.pt", nets[0], ("a", "b", "c"), 64, members=[wide])

@@ -84,6 +84,21 @@ def test_shipped_settings_load() -> None:
     assert s.synthesis.tilts_deg[0] == 20.0 and s.synthesis.tilts_deg[-1] == 45.0
     q = load_train_settings(quick=True)
     assert q.train.epochs < s.train.epochs and len(q.synthesis.directions) < 72
+    assert s.train.members == 4 and q.train.members == 1  # the shipped model averages four seeds
+
+
+def test_train_and_save_members_are_the_seeds_after_the_first(tmp_path: Path) -> None:
+    """``members = 2``: the checkpoint holds the seed-0 model and the seed-1 model, the same as trained apart."""
+    settings = TrainSettings(replace(SYN, headings_deg=(0.0, 120.0, 240.0)), replace(CFG, epochs=2, members=2))
+    out = train_and_save(settings, tmp_path / "m.pt", tmp_path / "cache", progress=False, meshes=(NAMES, _mesh))
+    ck = load_checkpoint(out.path)
+    assert len(ck.members) == 1 and ck.metrics["members"] == 2
+    data = synthesize_set(NAMES, _mesh, settings.synthesis, tmp_path / "cache")
+    alone = train(data, replace(settings.train, seed=1), progress=False).model
+    x = torch.randn(3, 128, 3)
+    with torch.no_grad():
+        assert torch.allclose(alone(x)[0], ck.members[0](x)[0], atol=1e-5)
+        assert not torch.allclose(ck.model(x)[0], ck.members[0](x)[0], atol=1e-3)
 
 
 @pytest.mark.parametrize("bad", ["[train]\nepochz = 3\n", "[synthesis]\nheading_step_deg = 0\n"])
