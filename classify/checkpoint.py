@@ -85,8 +85,9 @@ def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> Checkpoin
         raise CheckpointError(f"{path}: not an auvlink PointNet checkpoint (format {FORMAT!r} expected)")
     models = []
     try:
+        cfg = PointNetConfig.from_dict(d["model_config"])
         for state in [d["state_dict"], *d.get("members", [])]:
-            model = PointNet(PointNetConfig.from_dict(d["model_config"]))
+            model = PointNet(cfg)
             model.load_state_dict(state)
             models.append(model.to(device).eval())
     except (KeyError, RuntimeError, TypeError) as exc:
