@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from auvlink.evaluation.draw import MIN_SEPARATION, SPACE, draw_survey, draw_surveys, onset_range
-from auvlink.evaluation.score import bin_label, pool, score_survey
+from auvlink.evaluation.score import bin_label, by_class, pool, score_survey
 from auvlink.sim.scene import CLASSES, loads_scene
 
 
@@ -65,6 +65,12 @@ def test_score_counts_every_failure_kind() -> None:
     p = pool([s, s])
     assert p["precision_1m"] == pytest.approx(3 / 7) and p["recall_1m"] == pytest.approx(3 / 7)
     assert p["detections_per_object"] == pytest.approx(1.0) and p["failures"]["split"] == 2
+    rows = {r["class"]: r for r in by_class([s, s])}
+    assert sorted(rows) == sorted(c for c, _, _ in truth) and all(r["objects"] == 2 for r in rows.values())
+    assert [c for c, r in rows.items() if r["recall_1m"] == 1.0] == ["pipe", "reef_a", "sphere"]  # split: found
+    assert rows["pipe"]["failures"]["split"] == 2 and rows["box"]["failures"]["missed"] == 2
+    assert rows["reef_b"]["failures"]["merged"] == 2 and rows["half_pipe"]["failures"]["offset"] == 2
+    assert rows["hemisphere"]["failures"]["wrong_class"] == 2 and rows["hemisphere"]["called"] == {"box": 2}
 
 
 def test_bins() -> None:
@@ -77,7 +83,7 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     """The CI smoke: 2 small surveys of the space simulated, replayed and scored in two processes."""
     from auvlink.cli import main
     from auvlink.evaluation.surveys import summarize
-    from auvlink.evaluation.tables import text_table
+    from auvlink.evaluation.tables import class_table, text_table
 
     assert main(["eval", "--surveys", "2", "--seed", "5", "--out", str(tmp_path), "--workers", "2", "--small"]) == 0
     data = json.loads((tmp_path / "surveys.json").read_text())
@@ -92,3 +98,5 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     assert o["objects"] == 4 and o["detections"] >= 1
     assert 0.0 <= o["precision_1m"] <= 1.0 and 0.0 <= o["recall_1m"] <= 1.0
     assert "roughness" in text_table(res) and (tmp_path / "surveys.png").stat().st_size > 1000
+    assert sum(r["objects"] for r in data["by_class"]) == 4 and data["by_class"] == res["by_class"]
+    assert all(r["class"] in class_table(res) for r in res["by_class"])

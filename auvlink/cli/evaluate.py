@@ -13,7 +13,8 @@ class, seed 11; with ``--quick`` 3 headings x 1 tilt x 2 altitudes), cached unde
 from the condition space (:mod:`auvlink.evaluation.draw`), simulate each into a log, replay it
 through the pipeline and score the detections (1 m and 2 m, the class must match) overall, per
 factor bin and by failure kind (:mod:`auvlink.evaluation.surveys`); writes ``DIR/surveys.json``
-and ``DIR/surveys.png`` and prints the table (``--json``: the pooled figures as JSON). Default seed 1.
+and ``DIR/surveys.png`` and prints the table, then per true class its recall, failures and what its wrongly classified
+objects were called (``--json``: the pooled figures as JSON). Default seed 1.
 
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
 simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
@@ -122,7 +123,7 @@ def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Pat
 def _surveys(args: argparse.Namespace) -> int:
     from auvlink.errors import AuvlinkError
     from auvlink.evaluation.surveys import run_surveys
-    from auvlink.evaluation.tables import plot, text_table
+    from auvlink.evaluation.tables import class_table, plot, text_table
     from auvlink.jsonutil import to_jsonable
 
     if args.surveys < 1:
@@ -136,8 +137,10 @@ def _surveys(args: argparse.Namespace) -> int:
                          small=args.small)
     png = plot(result, args.out / "surveys.png")
     if args.json:
-        print(json.dumps(to_jsonable({k: result[k] for k in ("seed", "command", "overall", "by_factor")})))
+        print(json.dumps(to_jsonable({k: result[k] for k in ("seed", "command", "overall", "by_factor", "by_class")})))
     else:
         print(text_table(result))
+        print("\nper true class (1 m, class must match):")
+        print(class_table(result))
         print(f"written: {args.out / 'surveys.json'}, {png}")
     return 0

@@ -15,6 +15,8 @@ counted by kind, each detection and each object once:
 
 Pooling (:func:`pool`) sums counts, so precision and recall of a bin weigh every object and
 detection of its surveys alike. The factor bins are fixed (:data:`BINS`), not quantiles of the draw.
+Per true class (:func:`by_class`): its objects, their recall at 1 m and their failures by kind, and what
+the wrongly classified ones were called: which objects a survey misses or names wrongly.
 """
 
 from __future__ import annotations
@@ -153,3 +155,29 @@ def by_factor(scores: Sequence[dict[str, Any]], factors: Sequence[dict[str, floa
             rows.append({"factor": f, "bin": label, **pool(sel)})
         out[f] = rows
     return out
+
+
+#: the failure kinds an object (not a detection) can have, as :func:`by_class` counts them
+OBJECT_KINDS = ("split", "merged", "missed", "wrong_class", "offset")
+
+
+def by_class(scores: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per true class (sorted by name): ``objects``, ``correct_1m`` (the object's nearest assigned detection
+    within 1 m has its class; split objects count as found when it has), ``recall_1m``, ``failures`` (the
+    object kinds of :func:`score_survey`; a split object with another failure counts as both) and
+    ``called`` (class -> count: what its wrongly classified objects were named)."""
+    acc: dict[str, dict[str, Any]] = {}
+    for s in scores:
+        for o in s["per_object"]:
+            row = acc.setdefault(o["class"], {"objects": 0, "correct_1m": 0, "failures": dict.fromkeys(OBJECT_KINDS, 0),
+                                              "called": {}})
+            row["objects"] += 1
+            kinds = [k for k in str(o["kind"]).split("+") if k != "ok"]
+            for k in kinds:
+                row["failures"][k] += 1
+            if not set(kinds) - {"split"}:
+                row["correct_1m"] += 1
+            if "wrong_class" in kinds and o["detected_as"]:
+                name = str(o["detected_as"][0])
+                row["called"][name] = row["called"].get(name, 0) + 1
+    return [{"class": c, **r, "recall_1m": _ratio(r["correct_1m"], r["objects"])} for c, r in sorted(acc.items())]

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from auvlink.evaluation.draw import SurveyDraw, draw_surveys
-from auvlink.evaluation.score import by_factor, pool, score_survey
+from auvlink.evaluation.score import by_class, by_factor, pool, score_survey
 from auvlink.jsonutil import to_jsonable
 
 
@@ -135,4 +135,5 @@ def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
     """Pooled scores overall and per factor bin, and the per-survey records."""
     scores = [r["score"] for r in records]
     factors = [r["factors"] for r in records]
-    return {"overall": pool(scores), "by_factor": by_factor(scores, factors), "surveys": records}
+    return {"overall": pool(scores), "by_factor": by_factor(scores, factors), "by_class": by_class(scores),
+            "surveys": records}

@@ -6,7 +6,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from auvlink.evaluation.score import BINS, KINDS
+from auvlink.evaluation.score import BINS, KINDS, OBJECT_KINDS
 
 COLUMNS = ("surveys", "objects", "detections", "precision_1m", "recall_1m", "precision_2m", "recall_2m",
            "detections_per_object", *KINDS)
@@ -38,6 +38,24 @@ def text_table(result: dict[str, Any]) -> str:
     lines.append("  ".join("-" * w for w in widths))
     lines += ["  ".join(v.rjust(w) for v, w in zip(row, widths, strict=True)) for row in cells]
     return "\n".join(lines)
+
+
+def class_table(result: dict[str, Any]) -> str:
+    """Per true class: objects, recall at 1 m, failures by kind, and what the wrongly classified were called."""
+    names = ("class", "objects", "R_1m", *OBJECT_KINDS, "called")
+    cells = []
+    for r in result.get("by_class", []):
+        called = ", ".join(f"{k} {v}" for k, v in sorted(r["called"].items(), key=lambda kv: (-kv[1], kv[0])))
+        cells.append([r["class"], str(r["objects"]), _cell(r["recall_1m"]),
+                      *(str(r["failures"][k]) for k in OBJECT_KINDS), called or "-"])
+    widths = [max([len(n), *(len(row[i]) for row in cells)]) for i, n in enumerate(names)]
+
+    def line(values: list[str] | tuple[str, ...]) -> str:  # names left, counts right
+        last = len(values) - 1
+        return "  ".join(v.ljust(w) if i in (0, last) else v.rjust(w)
+                         for i, (v, w) in enumerate(zip(values, widths, strict=True))).rstrip()
+
+    return "\n".join([line(names), "  ".join("-" * w for w in widths), *(line(row) for row in cells)])
 
 
 def plot(result: dict[str, Any], path: Path) -> Path:
