@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,17 +28,25 @@ def rows(result: dict[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
+def _layout(names: Sequence[str], cells: Sequence[Sequence[str]], left: Sequence[int] = ()) -> str:
+    """Columns as wide as their widest cell, two spaces apart, under a dashed rule; right-aligned but for the
+    columns ``left``."""
+    widths = [max([len(n), *(len(row[i]) for row in cells)]) for i, n in enumerate(names)]
+
+    def line(values: Sequence[str]) -> str:
+        return "  ".join(v.ljust(w) if i in left else v.rjust(w)
+                         for i, (v, w) in enumerate(zip(values, widths, strict=True))).rstrip()
+
+    return "\n".join([line(names), "  ".join("-" * w for w in widths), *(line(row) for row in cells)])
+
+
 def text_table(result: dict[str, Any]) -> str:
     """The table printed by ``auvlink eval --surveys``: P/R at 1 m and 2 m (class must match)."""
     cols = ("factor", "bin", *COLUMNS)
     cells = [[_cell(r.get(c, "")) for c in cols] for r in rows(result)]
     names = [c.replace("precision", "P").replace("recall", "R").replace("detections_per_object", "det/obj")
              for c in cols]
-    widths = [max(len(n), *(len(row[i]) for row in cells)) for i, n in enumerate(names)]
-    lines = ["  ".join(n.rjust(w) for n, w in zip(names, widths, strict=True))]
-    lines.append("  ".join("-" * w for w in widths))
-    lines += ["  ".join(v.rjust(w) for v, w in zip(row, widths, strict=True)) for row in cells]
-    return "\n".join(lines)
+    return _layout(names, cells)
 
 
 def class_table(result: dict[str, Any]) -> str:
@@ -48,14 +57,7 @@ def class_table(result: dict[str, Any]) -> str:
         called = ", ".join(f"{k} {v}" for k, v in sorted(r["called"].items(), key=lambda kv: (-kv[1], kv[0])))
         cells.append([r["class"], str(r["objects"]), _cell(r["recall_1m"]),
                       *(str(r["failures"][k]) for k in OBJECT_KINDS), called or "-"])
-    widths = [max([len(n), *(len(row[i]) for row in cells)]) for i, n in enumerate(names)]
-
-    def line(values: list[str] | tuple[str, ...]) -> str:  # names left, counts right
-        last = len(values) - 1
-        return "  ".join(v.ljust(w) if i in (0, last) else v.rjust(w)
-                         for i, (v, w) in enumerate(zip(values, widths, strict=True))).rstrip()
-
-    return "\n".join([line(names), "  ".join("-" * w for w in widths), *(line(row) for row in cells)])
+    return _layout(names, cells, left=(0, len(names) - 1))  # names left, counts right
 
 
 def plot(result: dict[str, Any], path: Path) -> Path:
