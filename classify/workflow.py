@@ -103,18 +103,21 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
         "epochs_run": len(result.history), "val_accuracy": result.val_accuracy, "n_train_clouds": len(data),
         "history": result.history, "config_source": settings.source,
     }
-    path = save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
-                           settings.train.to_dict(), metrics, members=members)
+
+    def save(calibration: dict[str, Any] | None = None) -> Path:  # the metrics as they stand
+        return save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
+                               settings.train.to_dict(), metrics, calibration, members)
+
+    path = save()
     calibration = calibrate_clutter(Classifier.load(path), data.subset(result.val_idx))
     metrics["calibration"] = calibration
-    path = save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
-                           settings.train.to_dict(), metrics, calibration, members)
-    report = evaluate_classifier(Classifier.load(path), held)
+    path = save(calibration)
+    clf = Classifier.load(path)  # as calibrated: what inference loads
+    report = evaluate_classifier(clf, held)
     metrics["heldout"] = {"settings": held_settings.to_dict(), **report.to_dict()}
     for key, check in (extra_evals or {}).items():
-        metrics[key] = check(Classifier.load(path))
-    save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
-                    settings.train.to_dict(), metrics, calibration, members)
+        metrics[key] = check(clf)
+    save(calibration)
     return TrainOutcome(path, result, report, metrics)
 
 
