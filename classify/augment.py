@@ -47,6 +47,9 @@ class AugmentConfig:
     attach_prob: float = 0.0
     attach_fraction: tuple[float, float] = (0.05, 0.3)
     attach_gap: tuple[float, float] = (0.8, 1.5)
+    #: False: clouds made by recon's own seabed removal (``CloudSet.measured``) get no ``z_shift``, ``tilt_deg`` or
+    #: attached clutter: their seabed error is the one recon made
+    seabed_error_on_measured: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -157,11 +160,16 @@ def attach_clutter(points: F32, rng: np.random.Generator, pool: F32, prob: float
 
 
 def augment_batch(points: F32, rng: np.random.Generator, cfg: AugmentConfig, fixed_scale: bool = False,
-                  keep_z: bool = False, pool: F32 | None = None, attach: npt.NDArray[np.bool_] | None = None) -> F32:
+                  keep_z: bool = False, pool: F32 | None = None, attach: npt.NDArray[np.bool_] | None = None,
+                  measured: npt.NDArray[np.bool_] | None = None) -> F32:
     """All augmentations of ``cfg`` applied to a batch (a new array); ``keep_z``: z is the height above
     the seabed (never re-centred; shifted by ``z_shift``). ``pool``: clutter clouds that may be attached to the
-    clouds where ``attach`` is True (``attach_prob``)."""
+    clouds where ``attach`` is True (``attach_prob``). ``measured``: the clouds made by recon's own seabed removal
+    (no seabed-error augmentation unless ``seabed_error_on_measured``)."""
     out = np.asarray(points, dtype=np.float32)
+    spare = np.zeros(len(out), bool) if measured is None or cfg.seabed_error_on_measured else np.asarray(measured)
+    if attach is not None:
+        attach = attach & ~spare
     if cfg.attach_prob > 0 and pool is not None and len(pool) and attach is not None and attach.any():
         out = out.copy()
         out[attach] = attach_clutter(out[attach], rng, pool, cfg.attach_prob, cfg.attach_fraction, cfg.attach_gap)
@@ -169,9 +177,11 @@ def augment_batch(points: F32, rng: np.random.Generator, cfg: AugmentConfig, fix
         out = plane_cut(out, rng, cfg.cut_prob, cfg.cut_max, fixed_scale, keep_z)
     if keep_z and cfg.z_shift[1] > cfg.z_shift[0]:
         out = out.copy()
-        out[..., 2] -= rng.uniform(*cfg.z_shift, size=(len(out), 1)).astype(np.float32)
+        shift = rng.uniform(*cfg.z_shift, size=(len(out), 1)).astype(np.float32)
+        out[..., 2] -= np.where(spare[:, None], np.float32(0.0), shift)
     if keep_z and cfg.tilt_deg > 0:
-        out = random_tilt(out, rng, cfg.tilt_deg)
+        tilted = random_tilt(out, rng, cfg.tilt_deg)
+        out = np.where(spare[:, None, None], out, tilted)
     if cfg.yaw:
         out = random_yaw(out, rng)
     if cfg.scale[0] != 1.0 or cfg.scale[1] != 1.0:

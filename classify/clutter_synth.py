@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 import zlib
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -101,8 +102,12 @@ def _plane_ranges(seabed: SeabedSurface, origins: F64, d: F64) -> F64:
 
 
 def line_returns(seabed: SeabedSurface, origins: F64, heading: float, tilt: float, settings: SynthesisSettings,
-                 rng: np.random.Generator, t0: float, dt: float, threshold: float) -> LineReturns:
-    """Returns of one straight level line over ``seabed`` (sonar at ``origins`` (P, 3), NED m); see the module doc."""
+                 rng: np.random.Generator, t0: float, dt: float, threshold: float,
+                 obstacle: tuple[Any, float] | None = None) -> LineReturns:
+    """Returns of one straight level line over ``seabed`` (sonar at ``origins`` (P, 3), NED m); see the module doc.
+
+    ``obstacle``: an Open3D ``RaycastingScene`` of an object's mesh (world NED m) and its return relative to
+    steel's (:mod:`classify.object_patch_synth`); a ray returns from whichever it meets first."""
     spread = math.radians(settings.spread_deg)
     k = settings.clutter_rays_per_beam
     d, steep = sonar_rays(heading, tilt, spread, k)  # (k, beams, 3), (beams, 3)
@@ -126,6 +131,8 @@ def line_returns(seabed: SeabedSurface, origins: F64, heading: float, tilt: floa
             t_hit[i] = r.reshape(k, n_beams)
             cos_a[i] = np.abs((nrm * d_soa).sum(axis=0)).reshape(k, n_beams)
         cos_a *= amp
+        if obstacle is not None:
+            _hit_obstacle(obstacle, o, d, t_hit, cos_a, math.sqrt(k / settings.rays_per_beam))
         if settings.cos_jitter > 0:
             cos_a *= np.exp(settings.cos_jitter * rng.standard_normal(cos_a.shape))
         hit = np.isfinite(t_hit) & (t_hit < far)
@@ -150,6 +157,25 @@ def line_returns(seabed: SeabedSurface, origins: F64, heading: float, tilt: floa
     dvl = np.column_stack([origins[:, :2], seabed.depth(origins[:, 0], origins[:, 1])])
     times = np.asarray(t0 + dt * pi, dtype=np.float64)
     return LineReturns(pts, arcs, times, pi, dvl, sea[tex], sea[sparse], sp[tex], sp[sparse])
+
+
+def _hit_obstacle(obstacle: tuple[Any, float], origins: F64, d: F64, t_hit: F64, cos_a: F64, steel_amp: float) -> None:
+    """Where a ray ``d`` (k, beams, 3) from ``origins`` (P, 3) meets the obstacle's mesh before the seabed, its range
+    and return (``|cos|`` times the obstacle's amplitude) replace the seabed's in ``t_hit``, ``cos_a`` (P, k, beams)."""
+    import open3d as o3d  # lazy: Open3D loads only when clouds are synthesized
+
+    scene, reflection = obstacle
+    n_pos, k, n_beams = t_hit.shape
+    rays = np.empty((n_pos, k, n_beams, 6), dtype=np.float32)
+    rays[..., :3] = origins[:, None, None, :]
+    rays[..., 3:] = d[None]
+    ans = scene.cast_rays(o3d.core.Tensor.from_numpy(rays.reshape(-1, 6)))
+    t_obj = ans["t_hit"].numpy().astype(np.float64).reshape(t_hit.shape)
+    nearer = np.isfinite(t_obj) & (t_obj < t_hit)
+    if nearer.any():
+        cos_obj = np.abs((ans["primitive_normals"].numpy().reshape(n_pos, k, n_beams, 3) * d[None]).sum(axis=-1))
+        t_hit[nearer] = t_obj[nearer]
+        cos_a[nearer] = cos_obj[nearer] * steel_amp * math.sqrt(reflection)
 
 
 def draw_survey(settings: SynthesisSettings, rng: np.random.Generator

@@ -33,7 +33,8 @@ _BOUNDS: dict[str, tuple[Any, ...]] = {
     "heading_step_deg": ("gt", 0.0, 360.0), "step_m": ("gt", 0.0, 100.0), "bin_m": ("gt", 0.0, 100.0),
     "cut_prob": (0.0, 1.0), "dropout_max": (0.0, 1.0), "fused_prob": (0.0, 1.0), "partial_prob": (0.0, 1.0),
     "clutter_clouds": (0, 100_000), "clutter_rays_per_beam": (2, 1024), "clutter_line_m": ("gt", 0.0, 1000.0),
-    "clutter_poll_m": ("gt", 0.0, 100.0), "run_span_m": (0.0, 10.0),
+    "clutter_poll_m": ("gt", 0.0, 100.0), "run_span_m": (0.0, 10.0), "object_patch_views": (0, 100_000),
+    "object_patch_lead_m": (0.0, 100.0), "object_patch_offset_m": ("gt", 0.0, 100.0),
 }
 _LEAF = {float: Number, int: Integer, bool: Boolean, str: Text}
 

@@ -18,6 +18,7 @@ import os
 import zlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -43,13 +44,17 @@ class CloudSet:
     tilts_deg: npt.NDArray[np.float64]
     scale_m: float = 0.0  # SynthesisSettings.scale_m of the clouds (0: unit sphere)
     z_ref: str = "mean"  # SynthesisSettings.z_ref ("seabed": z is the height above the seabed, not centred)
+    #: per cloud: made by recon's own seabed removal (clutter, objects on rough patches), so its seabed error is
+    #: measured, not modelled (``AugmentConfig.seabed_error_on_measured``); None: none is
+    measured: npt.NDArray[np.bool_] | None = None
 
     def __len__(self) -> int:
         return len(self.labels)
 
     def subset(self, idx: npt.NDArray[np.integer[Any]]) -> CloudSet:
-        return CloudSet(self.points[idx], self.labels[idx], self.class_names,
-                        self.headings_deg[idx], self.tilts_deg[idx], self.scale_m, self.z_ref)
+        return CloudSet(self.points[idx], self.labels[idx], self.class_names, self.headings_deg[idx],
+                        self.tilts_deg[idx], self.scale_m, self.z_ref,
+                        None if self.measured is None else self.measured[idx])
 
 
 def default_cache_dir() -> Path:
@@ -66,8 +71,8 @@ def catalog_meshes() -> tuple[tuple[str, ...], MeshSource]:
 def _cache_key(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArray[Any],
                settings: SynthesisSettings) -> str:
     h = hashlib.sha256()
-    h.update(json.dumps({"v": CACHE_VERSION, "class": name, "settings": settings.to_dict()},
-                        sort_keys=True).encode())
+    flat = {k: v for k, v in settings.to_dict().items() if not k.startswith("object_patch_")}  # not used here
+    h.update(json.dumps({"v": CACHE_VERSION, "class": name, "settings": flat}, sort_keys=True).encode())
     h.update(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
     h.update(np.ascontiguousarray(triangles, dtype=np.int64).tobytes())
     return h.hexdigest()[:20]
@@ -111,12 +116,39 @@ def _clutter_key(settings: SynthesisSettings, count: int) -> str:
     return h.hexdigest()[:20]
 
 
+def _patch_key(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArray[Any], settings: SynthesisSettings) -> str:
+    """Cache key of a class's views on rough patches: as :func:`_clutter_key`, with the class and its mesh."""
+    from classify import object_patch_synth
+
+    h = hashlib.sha256(_clutter_key(settings, settings.object_patch_views).encode())
+    h.update(name.encode())
+    h.update(Path(str(object_patch_synth.__file__)).read_bytes())
+    h.update(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(triangles, dtype=np.int64).tobytes())
+    return h.hexdigest()[:20]
+
+
+def _cached(path: Path | None, make: Callable[[], tuple[npt.NDArray[Any], npt.NDArray[Any]]]
+            ) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+    """``(points, directions)`` from the ``.npz`` at ``path`` when it exists, else made and stored there."""
+    if path is not None and path.is_file():
+        with np.load(path) as z:
+            return z["points"], z["directions"]
+    clouds, dirs = make()
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")
+        np.savez_compressed(tmp, points=clouds, directions=dirs)
+        os.replace(tmp, path)
+    return clouds, dirs
+
+
 def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: SynthesisSettings,
                    cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
     """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given); the class
     ``clutter`` (:data:`classify.labels.CLUTTER`) is ``clutter_clouds`` clouds of seabed patches
     (:func:`classify.clutter_synth.synthesize_clutter`), not a mesh."""
-    pts, labels, meta = [], [], []
+    pts, labels, meta, measured = [], [], [], []
     for label, name in enumerate(progress_bar(class_names, enabled=progress, desc="synthesize", leave=False)):
         is_clutter = name == CLUTTER
         vertices, triangles = (np.zeros((0, 3)), np.zeros((0, 3), np.int64)) if is_clutter else mesh_for(name)
@@ -125,27 +157,29 @@ def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: S
             key = _clutter_key(settings, settings.clutter_clouds) if is_clutter else \
                 _cache_key(name, vertices, triangles, settings)
             path = Path(cache_dir) / f"{name}-{key}.npz"
-        if path is not None and path.is_file():
-            with np.load(path) as z:
-                clouds, dirs = z["points"], z["directions"]
-        else:
-            if is_clutter:
-                from classify.clutter_synth import synthesize_clutter
+        if is_clutter:
+            from classify.clutter_synth import synthesize_clutter
 
-                clouds, dirs = synthesize_clutter(settings, settings.clutter_clouds, progress)
-            else:
-                clouds, dirs = synthesize_class(name, vertices, triangles, settings)
-            if path is not None:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")
-                np.savez_compressed(tmp, points=clouds, directions=dirs)
-                os.replace(tmp, path)
+            clouds, dirs = _cached(path, partial(synthesize_clutter, settings, settings.clutter_clouds, progress))
+            measured.append(np.ones(len(clouds), bool))
+        else:
+            clouds, dirs = _cached(path, partial(synthesize_class, name, vertices, triangles, settings))
+            measured.append(np.zeros(len(clouds), bool))
+            if settings.object_patch_views > 0:
+                from classify.object_patch_synth import synthesize_object_patches
+
+                patch_path = None if cache_dir is None else \
+                    Path(cache_dir) / f"{name}-patch-{_patch_key(name, vertices, triangles, settings)}.npz"
+                more, more_dirs = _cached(patch_path, partial(synthesize_object_patches, name, vertices, triangles,
+                                                              settings, settings.object_patch_views))
+                clouds, dirs = np.concatenate([clouds, more]), np.concatenate([dirs, more_dirs])
+                measured.append(np.ones(len(more), bool))
         pts.append(clouds)
         labels.append(np.full(len(clouds), label, dtype=np.int64))
         meta.append(dirs)
     d = np.concatenate(meta)
     return CloudSet(np.concatenate(pts).astype(np.float32), np.concatenate(labels), tuple(class_names),
-                    d[:, 0], d[:, 1], settings.scale_m, settings.z_ref)
+                    d[:, 0], d[:, 1], settings.scale_m, settings.z_ref, np.concatenate(measured))
 
 
 def heldout_settings(settings: SynthesisSettings, seed: int | None = None) -> SynthesisSettings:
@@ -159,7 +193,8 @@ def heldout_settings(settings: SynthesisSettings, seed: int | None = None) -> Sy
     lo, hi = settings.altitude_m
     return replace(settings, headings_deg=tuple(float(h + step / 2) % 360.0 for h in hs),
                    tilts_deg=tuple(float(t) for t in tilts), altitude_m=(0.8 * lo, 1.2 * hi),
-                   seed=settings.seed + 1000 if seed is None else seed)
+                   seed=settings.seed + 1000 if seed is None else seed,
+                   object_patch_views=settings.object_patch_views // 3)
 
 
 def stratified_split(labels: npt.NDArray[np.int64], val_fraction: float,

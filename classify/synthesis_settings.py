@@ -86,6 +86,13 @@ class SynthesisSettings:
     clutter_energy_threshold: tuple[float, float] = (0.0015, 0.003)
     clutter_rays_per_beam: int = 32  # rays per beam over the seabed (the simulator's default)
     clutter_poll_m: float = 1.0  # m flown between recon's polls (its seabed fit sees what came before)
+    # objects on rough patches (classify.object_patch_synth): object_patch_views > 0 adds that many views per class
+    # of the mesh lying on a drawn rough seabed, as recon's own seabed removal and clustering hand them over
+    object_patch_views: int = 0
+    object_patch_roughness_m: tuple[float, float] = (0.03, 0.10)  # m rms
+    object_patch_lines: tuple[float, float] = (1.0, 3.0)  # lines past the object
+    object_patch_lead_m: float = 4.0  # m: each line starts with its onset this far before the object
+    object_patch_offset_m: float = 1.0  # m: a cluster centred farther from the object is not a view of it
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

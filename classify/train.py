@@ -142,7 +142,8 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
             if len(batch) < 2:  # batch norm needs two samples
                 continue
             pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng), fixed, keep_z)
-            pts = augment_batch(pts, rng, cfg.augment, fixed, keep_z, pool, data.labels[batch] != clutter_label)
+            pts = augment_batch(pts, rng, cfg.augment, fixed, keep_z, pool, data.labels[batch] != clutter_label,
+                                None if data.measured is None else data.measured[batch])
             x = torch.from_numpy(pts).to(device)
             y = torch.from_numpy(data.labels[batch]).to(device)
             logits, trans = model(x)

@@ -132,5 +132,6 @@ def heldout_set(synthesis: dict[str, Any] | SynthesisSettings, class_names: tupl
     if thin:
         views = len(held.directions) * held.copies
         held = replace(held, headings_deg=held.headings_deg[::3], tilts_deg=held.tilts_deg[1::2], copies=1)
-        held = replace(held, clutter_clouds=max(8, round(held.clutter_clouds * len(held.directions) / views)))
+        held = replace(held, clutter_clouds=max(8, round(held.clutter_clouds * len(held.directions) / views)),
+                       object_patch_views=min(held.object_patch_views, 2))
     return synthesize_set(class_names, mesh_for, held, cache_dir, progress)

@@ -140,8 +140,9 @@ def test_eval_cli_writes_report(shipped: Classifier, tmp_path: Path) -> None:
     assert main(["eval", "--quick", "--out", str(out), "--cache", str(tmp_path / "cache")]) == 0
     report = json.loads((out / "eval.json").read_text())
     # 8 classes x 6 headings x 2 tilts, less the views from which a low half pipe gives no highlight at all,
-    # and 9 clutter clouds (200 for 270 views per class in the held-out set, 12 views per class here)
-    assert 8 * 6 * 2 - 6 + 9 <= report["n"] <= 8 * 6 * 2 + 9
+    # 9 clutter clouds (200 for 270 views per class in the held-out set, 12 views per class here), and up to 2
+    # views per class on rough patches (a patch whose object recon misses gives none)
+    assert 8 * 6 * 2 - 6 + 9 + 8 <= report["n"] <= 8 * 6 * 2 + 9 + 16
     assert report["class_names"] == [*catalog.CLASSES, CLUTTER]
     assert set(report["lookalike_pairs"]) == {"sphere/hemisphere", "pipe/half_pipe"}
     assert report["macro"]["recall"] >= 0.7  # measured 0.78

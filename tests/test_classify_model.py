@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -184,6 +185,16 @@ def test_seabed_referenced_normalization_keeps_height() -> None:
     aug = augment_batch(b, np.random.default_rng(0), cfg, fixed_scale=True, keep_z=True)
     dz = (b[:, :, 2] - aug[:, :, 2])  # the seabed taken deeper: every point higher by one draw per cloud
     assert np.all((dz > 0.1 - 1e-6) & (dz < 0.2 + 1e-6)) and np.allclose(dz, dz[:, :1])
+    # clouds made by recon's own seabed removal keep the seabed error recon made, when so configured: no shift or
+    # tilt on those; the others are augmented as before, from the same draws
+    measured = np.arange(len(b)) % 2 == 0
+    cfg = replace(cfg, yaw=False, tilt_deg=8.0, seabed_error_on_measured=False)
+    spared = augment_batch(b, np.random.default_rng(0), cfg, fixed_scale=True, keep_z=True, measured=measured)
+    every = augment_batch(b, np.random.default_rng(0), replace(cfg, seabed_error_on_measured=True),
+                          fixed_scale=True, keep_z=True, measured=measured)
+    np.testing.assert_allclose(spared[measured], b[measured])
+    np.testing.assert_allclose(spared[~measured], every[~measured])
+    assert not np.allclose(every[measured], b[measured])
 
 
 def test_classifier_seabed_depth(tmp_path: Path) -> None:

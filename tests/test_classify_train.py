@@ -85,6 +85,7 @@ def test_shipped_settings_load() -> None:
     q = load_train_settings(quick=True)
     assert q.train.epochs < s.train.epochs and len(q.synthesis.directions) < 72
     assert s.train.members == 4 and q.train.members == 1  # the shipped model averages four seeds
+    assert s.synthesis.object_patch_views == 150 and 0 < q.synthesis.object_patch_views < 150
 
 
 def test_train_and_save_members_are_the_seeds_after_the_first(tmp_path: Path) -> None:
