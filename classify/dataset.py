@@ -106,12 +106,12 @@ def _clutter_key(settings: SynthesisSettings, count: int) -> str:
     (recon's seabed removal and clustering, the simulator's seabed: a change there gives other clutter)."""
     import recon
     from auvlink.sim import seabed
-    from classify import clutter_synth, scan_synth, views
+    from classify import clutter_synth, scan_synth, seabed_returns, views
 
     h = hashlib.sha256(json.dumps({"v": CACHE_VERSION, "class": CLUTTER, "count": count,
                                    "settings": settings.to_dict()}, sort_keys=True).encode())
     files = sorted(Path(str(recon.__file__)).parent.glob("*.py"))
-    for f in [*files, *(Path(str(m.__file__)) for m in (seabed, clutter_synth, scan_synth, views))]:
+    for f in [*files, *(Path(str(m.__file__)) for m in (seabed, clutter_synth, seabed_returns, scan_synth, views))]:
         h.update(f.read_bytes())
     return h.hexdigest()[:20]
 

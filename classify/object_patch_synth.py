@@ -15,7 +15,7 @@ the geometry alone (no sonar image is rendered), with recon's code doing the res
   frame every ``clutter_step_m`` metres, spaced ``clutter_spacing`` times the swath at the onset, the first line
   at a lateral offset that puts the object anywhere in its swath. Each line runs from where its onset is
   ``object_patch_lead_m`` before the object to past it, and is shifted by a misalignment of ``misalign_m``.
-* **Returns**: :func:`classify.clutter_synth.line_returns` with the mesh as an obstacle (its material's return
+* **Returns**: :func:`classify.seabed_returns.line_returns` with the mesh as an obstacle (its material's return
   relative to steel's, :func:`auvlink.sim.catalog.class_material`).
 * **Recon**: :func:`classify.clutter_synth.recon_clusters`; the view is the cluster (per line or fused over
   lines) holding the most points within the object's footprint, with the seabed depth recon gives it, after the
@@ -36,9 +36,10 @@ import numpy.typing as npt
 from auvlink.sim.catalog import MATERIALS, class_material
 from auvlink.sim.scene import SceneObject, Seabed
 from auvlink.sim.seabed import SeabedSurface
-from classify.clutter_synth import LineReturns, line_returns, recon_clusters
+from classify.clutter_synth import recon_clusters
 from classify.errors import SynthesisError
 from classify.scan_synth import HALF_FOV_DEG
+from classify.seabed_returns import LineReturns, line_returns
 from classify.synthesis_settings import SynthesisSettings
 from classify.views import training_cloud
 from recon.front_slope import replace_on_arcs

@@ -11,10 +11,10 @@ import numpy as np
 from auvlink.sim.catalog import mesh_for
 from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
-from classify.clutter_synth import line_returns
 from classify.config import load_train_settings
 from classify.dataset import _cache_key, heldout_settings
 from classify.object_patch_synth import _placed, object_patch_view, synthesize_object_patches
+from classify.seabed_returns import line_returns
 
 SETTINGS = replace(load_train_settings().synthesis, seed=5, object_patch_views=2)
 
