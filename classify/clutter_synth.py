@@ -39,12 +39,9 @@ import numpy as np
 import numpy.typing as npt
 
 from auvlink.progress import progress_bar
-from auvlink.sim.scene import Seabed
-from auvlink.sim.seabed import SeabedSurface
 from classify.errors import SynthesisError
 from classify.labels import CLUTTER
-from classify.scan_synth import HALF_FOV_DEG
-from classify.seabed_returns import LineReturns, line_returns
+from classify.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry
 from classify.synthesis_settings import SynthesisSettings
 from classify.views import training_cloud
 from recon.cluster import DetectedObject, cluster
@@ -63,37 +60,19 @@ def draw_survey(settings: SynthesisSettings, rng: np.random.Generator
                 ) -> tuple[list[LineReturns], int, float, float]:
     """The returns of the 2-3 lines flown over one drawn seabed patch (see the module docstring), the frames
     per poll (``clutter_poll_m`` of travel), and the first line's heading and the tilt (deg)."""
-    sb = Seabed(depth=30.0, slope_deg=float(rng.uniform(*settings.clutter_slope_deg)),
-                slope_azimuth_deg=float(rng.uniform(0.0, 360.0)),
-                roughness=float(rng.uniform(*settings.clutter_roughness_m)))
-    seabed = SeabedSurface(sb, int(rng.integers(0, 2**31 - 1)))
+    seabed = draw_seabed(settings, rng, settings.clutter_roughness_m)
     tilt = math.radians(float(rng.uniform(min(settings.tilts_deg), max(settings.tilts_deg))))
-    spread = math.radians(settings.spread_deg)
     alt = float(rng.uniform(*settings.clutter_altitude_m))
-    ground = alt / math.tan(tilt + spread / 2)  # horizontal distance to the onset
-    swath = 2.0 * math.hypot(ground, alt) * math.sin(math.radians(HALF_FOV_DEG))
+    _, swath = onset_geometry(alt, tilt, settings)
     spacing = float(rng.uniform(*settings.clutter_spacing)) * swath
     step = float(rng.uniform(*settings.clutter_step_m))
     n_lines = int(rng.integers(int(settings.clutter_lines[0]), int(settings.clutter_lines[1]) + 1))
     psi = float(rng.uniform(0.0, 2 * math.pi))
-    fwd = np.array([math.cos(psi), math.sin(psi)])
-    side = np.array([-math.sin(psi), math.cos(psi)])
     threshold = float(rng.uniform(*settings.clutter_energy_threshold))
     half = settings.clutter_line_m / 2
     xs = np.arange(-half, half, step) + rng.uniform(0.0, step)
-    lines, t0 = [], 0.0
-    for j in range(n_lines):
-        back = j % 2 == 1
-        along = xs[::-1] if back else xs
-        xy = along[:, None] * fwd + (j * spacing) * side
-        z = seabed.plane_depth(xy[:, 0], xy[:, 1]) - alt
-        origins = np.column_stack([xy, z])
-        heading = psi + math.pi if back else psi
-        lr = line_returns(seabed, origins, heading, tilt, settings, rng, t0, 1.0, threshold)
-        a = float(rng.uniform(0.0, 2 * math.pi))
-        lr.shift(np.array([math.cos(a), math.sin(a), 0.0]) * float(rng.uniform(*settings.misalign_m)))
-        lines.append(lr)
-        t0 += len(origins) + 30.0  # frames, and a turn between lines
+    paths = [(xs[::-1] if j % 2 == 1 else xs, j * spacing) for j in range(n_lines)]
+    lines = fly_lines(seabed, paths, psi, tilt, alt, settings, rng, threshold)
     return lines, max(1, round(settings.clutter_poll_m / step)), math.degrees(psi) % 360.0, math.degrees(tilt)
 
 

@@ -33,13 +33,12 @@ import zlib
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.sim.catalog import MATERIALS, class_material
-from auvlink.sim.scene import SceneObject, Seabed
+from auvlink.sim.catalog import MATERIALS, class_material, object_pose
+from auvlink.sim.scene import SceneObject
 from auvlink.sim.seabed import SeabedSurface
 from classify.clutter_synth import recon_clusters
 from classify.errors import SynthesisError
-from classify.scan_synth import HALF_FOV_DEG
-from classify.seabed_returns import LineReturns, line_returns
+from classify.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry
 from classify.synthesis_settings import SynthesisSettings
 from classify.views import training_cloud
 from recon.front_slope import replace_on_arcs
@@ -54,8 +53,6 @@ def _placed(class_name: str, vertices: F64, triangles: npt.NDArray[np.integer], 
     """The mesh's world vertices (resting on ``seabed`` at the origin) and an Open3D raycasting scene of it."""
     import open3d as o3d  # lazy: Open3D loads only when clouds are synthesized
 
-    from auvlink.sim.catalog import object_pose
-
     pos, rot = object_pose(SceneObject(class_name, 0.0, 0.0, heading_deg), seabed)
     world = vertices @ rot.as_matrix().T + pos
     scene = o3d.t.geometry.RaycastingScene()
@@ -69,43 +66,25 @@ def draw_object_survey(class_name: str, vertices: F64, triangles: npt.NDArray[np
                        ) -> tuple[list[LineReturns], int, F64, float, float]:
     """The returns of the lines flown past one object on a drawn patch (module docstring), the frames per poll,
     the object's world vertices, and the first line's heading and the tilt (deg)."""
-    sb = Seabed(depth=30.0, slope_deg=float(rng.uniform(*settings.clutter_slope_deg)),
-                slope_azimuth_deg=float(rng.uniform(0.0, 360.0)),
-                roughness=float(rng.uniform(*settings.object_patch_roughness_m)))
-    seabed = SeabedSurface(sb, int(rng.integers(0, 2**31 - 1)))
+    seabed = draw_seabed(settings, rng, settings.object_patch_roughness_m)
     world, scene = _placed(class_name, vertices, triangles, seabed, float(rng.uniform(0.0, 360.0)))
     mat, steel = class_material(class_name), MATERIALS["steel"]
     reflection = (mat.weight * mat.reflection) / (steel.weight * steel.reflection)
     tilt = math.radians(float(rng.uniform(min(settings.tilts_deg), max(settings.tilts_deg))))
-    spread = math.radians(settings.spread_deg)
     alt = float(rng.uniform(*settings.clutter_altitude_m))
-    ground = alt / math.tan(tilt + spread / 2)  # horizontal distance to the onset
-    swath = 2.0 * math.hypot(ground, alt) * math.sin(math.radians(HALF_FOV_DEG))
+    ground, swath = onset_geometry(alt, tilt, settings)
     spacing = float(rng.uniform(*settings.clutter_spacing)) * swath * (1.0 if rng.random() < 0.5 else -1.0)
     step = float(rng.uniform(*settings.clutter_step_m))
     lo, hi = (round(v) for v in settings.object_patch_lines)
     n_lines = int(rng.integers(lo, hi + 1))
     psi = float(rng.uniform(0.0, 2 * math.pi))
-    fwd = np.array([math.cos(psi), math.sin(psi)])
-    side = np.array([-math.sin(psi), math.cos(psi)])
     threshold = float(rng.uniform(*settings.clutter_energy_threshold))
     radius = float(np.linalg.norm(world[:, :2], axis=1).max())
     y0 = float(rng.uniform(-0.45, 0.45)) * swath  # the object anywhere in the first line's swath
     start = ground + radius + settings.object_patch_lead_m  # the onset object_patch_lead_m before the object
     xs = np.arange(-start, radius + 1.0, step) + rng.uniform(0.0, step)
-    lines, t0 = [], 0.0
-    for j in range(n_lines):
-        back = j % 2 == 1
-        along = -xs if back else xs
-        xy = along[:, None] * fwd + (y0 + j * spacing) * side
-        z = seabed.plane_depth(xy[:, 0], xy[:, 1]) - alt
-        origins = np.column_stack([xy, z])
-        heading = psi + math.pi if back else psi
-        lr = line_returns(seabed, origins, heading, tilt, settings, rng, t0, 1.0, threshold, (scene, reflection))
-        a = float(rng.uniform(0.0, 2 * math.pi))
-        lr.shift(np.array([math.cos(a), math.sin(a), 0.0]) * float(rng.uniform(*settings.misalign_m)))
-        lines.append(lr)
-        t0 += len(origins) + 30.0  # frames, and a turn between lines
+    paths = [(-xs if j % 2 == 1 else xs, y0 + j * spacing) for j in range(n_lines)]
+    lines = fly_lines(seabed, paths, psi, tilt, alt, settings, rng, threshold, (scene, reflection))
     return lines, max(1, round(settings.clutter_poll_m / step)), world, math.degrees(psi) % 360.0, math.degrees(tilt)
 
 

@@ -22,8 +22,9 @@ import numpy as np
 import numpy.typing as npt
 
 from auvlink.sim.catalog import MATERIALS
+from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
-from classify.scan_synth import arc_vectors, energy_first_return, sonar_rays
+from classify.scan_synth import HALF_FOV_DEG, arc_vectors, energy_first_return, sonar_rays
 from classify.synthesis_settings import SynthesisSettings
 
 F64 = npt.NDArray[np.float64]
@@ -137,3 +138,41 @@ def _hit_obstacle(obstacle: tuple[Any, float], origins: F64, d: F64, t_hit: F64,
         cos_obj = np.abs((ans["primitive_normals"].numpy().reshape(n_pos, k, n_beams, 3) * d[None]).sum(axis=-1))
         t_hit[nearer] = t_obj[nearer]
         cos_a[nearer] = cos_obj[nearer] * steel_amp * math.sqrt(reflection)
+
+
+def draw_seabed(settings: SynthesisSettings, rng: np.random.Generator, roughness_m: tuple[float, float]
+                ) -> SeabedSurface:
+    """A patch's seabed: 30 m deep, a slope drawn from ``clutter_slope_deg`` (any azimuth), a roughness drawn from
+    ``roughness_m`` (m rms), its texture seeded from ``rng``."""
+    sb = Seabed(depth=30.0, slope_deg=float(rng.uniform(*settings.clutter_slope_deg)),
+                slope_azimuth_deg=float(rng.uniform(0.0, 360.0)), roughness=float(rng.uniform(*roughness_m)))
+    return SeabedSurface(sb, int(rng.integers(0, 2**31 - 1)))
+
+
+def onset_geometry(altitude: float, tilt: float, settings: SynthesisSettings) -> tuple[float, float]:
+    """The horizontal distance (m) from the sonar to the steepest ray's onset on a level seabed ``altitude`` m
+    below, and the swath's width there (m); ``tilt`` in radians."""
+    ground = altitude / math.tan(tilt + math.radians(settings.spread_deg) / 2)
+    return ground, 2.0 * math.hypot(ground, altitude) * math.sin(math.radians(HALF_FOV_DEG))
+
+
+def fly_lines(seabed: SeabedSurface, paths: list[tuple[F64, float]], psi: float, tilt: float, altitude: float,
+              settings: SynthesisSettings, rng: np.random.Generator, threshold: float,
+              obstacle: tuple[Any, float] | None = None) -> list[LineReturns]:
+    """The returns of lawnmower lines ``altitude`` m above the seabed's mean plane: line ``j`` runs through the
+    positions ``paths[j][0]`` (m along the heading ``psi``, rad) at ``paths[j][1]`` m to its right, along ``psi``
+    for even ``j`` and back for odd ones; each line shifted by a misalignment of ``misalign_m`` in a random
+    direction (dead reckoning between lines), one frame per position, a 30-frame turn between lines."""
+    fwd = np.array([math.cos(psi), math.sin(psi)])
+    side = np.array([-math.sin(psi), math.cos(psi)])
+    lines, t0 = [], 0.0
+    for j, (along, lateral) in enumerate(paths):
+        xy = along[:, None] * fwd + lateral * side
+        origins = np.column_stack([xy, seabed.plane_depth(xy[:, 0], xy[:, 1]) - altitude])
+        heading = psi + math.pi if j % 2 == 1 else psi
+        lr = line_returns(seabed, origins, heading, tilt, settings, rng, t0, 1.0, threshold, obstacle)
+        a = float(rng.uniform(0.0, 2 * math.pi))
+        lr.shift(np.array([math.cos(a), math.sin(a), 0.0]) * float(rng.uniform(*settings.misalign_m)))
+        lines.append(lr)
+        t0 += len(origins) + 30.0  # frames, and a turn between lines
+    return lines
