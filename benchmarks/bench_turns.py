@@ -20,6 +20,12 @@ from typing import Any
 import numpy as np
 
 
+def _xyz(v: Any) -> tuple[float, float, float]:
+    """A lever arm (m, body frame) as the 3-tuple the navigation config takes."""
+    x, y, z = (float(a) for a in v)
+    return x, y, z
+
+
 def _navigate(m: Any, rate: np.ndarray, cfg: Any) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     from recon.nav import DepthSamples, DvlSamples, GyroSamples, dead_reckon
     from recon.nav_stream import CausalNavigator
@@ -61,7 +67,7 @@ def run(minutes: float = 30.0) -> dict[str, Any]:
     m = measure(scene, settings, trajectory=traj)
     start = traj.true_pose(np.array([max(m.gyro.t[0], m.dvl.t[0])]))
     cfg = NavConfig(dvl_mounting=rdi_instrument_mounting(lever_arm=tuple(settings.sensors.dvl_lever_arm)),
-                    depth_lever_arm=tuple(settings.sensors.pressure_lever_arm),
+                    depth_lever_arm=_xyz(settings.sensors.pressure_lever_arm),
                     initial_heading=float(start.yaw[0]), initial_position=tuple(start.position[0, :2]))
     mids = traj.survey_start + (np.arange(sv.lines) * traj.period + sv.line_length / 2) / sv.speed
     print(f"{minutes:g}-minute survey: {sv.lines} lines, turn rate {sv.speed / traj.radius:.3f} rad/s, "

@@ -45,12 +45,10 @@ from classify.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_g
 from classify.synthesis_settings import SynthesisSettings
 from classify.views import training_cloud
 from recon.cluster import DetectedObject, cluster
-from recon.errors import ReconError
 from recon.front_slope import replace_on_arcs
 from recon.pipeline import ReconConfig
 from recon.poll_seabed import object_points, on_seabed
-from recon.seabed import SeabedModel
-from recon.seabed_texture import SeabedCells, TexturedSeabed, fit_textured
+from recon.seabed_memory import SeabedMemory
 
 F64 = npt.NDArray[np.float64]
 MAX_PATCHES_PER_CLOUD = 20  # patches drawn per clutter cloud asked before giving up
@@ -76,41 +74,24 @@ def draw_survey(settings: SynthesisSettings, rng: np.random.Generator
     return lines, max(1, round(settings.clutter_poll_m / step)), math.degrees(psi) % 360.0, math.degrees(tilt)
 
 
-def _fit(cells: SeabedCells, plane_pts: F64, lo: F64, hi: F64, cfg: ReconConfig) -> TexturedSeabed | None:
-    """Recon's seabed for a poll over the box ``lo``-``hi``: tiled planes, then the texture grid."""
-    pad = cfg.seabed.tile * 2.0
-    near = plane_pts[np.all((plane_pts[:, :2] >= lo - pad) & (plane_pts[:, :2] <= hi + pad), axis=1)]
-    if near.shape[0] < cfg.seabed.min_points:
-        return None
-    try:
-        coarse = SeabedModel.fit(near, cfg.seabed)
-    except ReconError:
-        return None
-    m = max(cfg.texture.context_m, cfg.texture.window_m + cfg.texture.cell)
-    return fit_textured(cells, coarse, lo - m, hi + m, cfg.texture)
-
-
 def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
                    ) -> list[tuple[DetectedObject, float]]:
     """Recon's seabed removal poll by poll, then clusters per line and over all lines (see the module doc):
     each with its seabed depth, after :func:`recon.poll_seabed.on_seabed`."""
-    cells = SeabedCells(cfg.texture.cell)
-    planes: list[F64] = []
+    memory = SeabedMemory(cfg.seabed, cfg.texture)  # what recon keeps of the seabed (recon.seabed_memory)
     kept: list[tuple[F64, F64, F64, int]] = []
     for j, ln in enumerate(lines):
         for s in range(0, len(ln.dvl), poll_frames):
             e = s + poll_frames
             sel = (ln.frame >= s) & (ln.frame < e)
-            planes.append(ln.dvl[s:e])  # as Reconstructor.add_seabed_points: planes and texture grid
-            cells.add(ln.dvl[s:e])
-            planes.append(ln.sparse[(ln.sparse_frame >= s) & (ln.sparse_frame < e)])
-            cells.add(ln.texture[(ln.texture_frame >= s) & (ln.texture_frame < e)])
-            cells.add(ln.points[sel])
+            memory.add(ln.dvl[s:e])  # as Reconstructor.add_seabed_points: planes and texture grid
+            memory.add_planes(ln.sparse[(ln.sparse_frame >= s) & (ln.sparse_frame < e)])
+            memory.add_texture(ln.texture[(ln.texture_frame >= s) & (ln.texture_frame < e)])
+            memory.add_texture(ln.points[sel])
             if not sel.any():
                 continue
             p = ln.points[sel]
-            plane_pts = np.concatenate(planes)
-            model = _fit(cells, plane_pts, p[:, :2].min(axis=0), p[:, :2].max(axis=0), cfg)
+            model = memory.fit(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
             if model is None:
                 continue
             keep = object_points(p, model, cfg.seabed, cfg.min_object_height, cfg.flank_radius)
@@ -118,7 +99,6 @@ def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
                 kept.append((p[keep], ln.times[sel][keep], ln.arcs[sel][keep], j))
     if not kept:
         return []
-    plane_pts = np.concatenate(planes)
     groups = [[k for k in kept if k[3] == j] for j in range(len(lines))]
     if len(lines) > 1:
         groups.append(kept)
@@ -133,7 +113,7 @@ def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
             continue
         lo = np.min([o.points[:, :2].min(axis=0) for o in objs], axis=0)
         hi = np.max([o.points[:, :2].max(axis=0) for o in objs], axis=0)
-        model = _fit(cells, plane_pts, lo, hi, cfg)
+        model = memory.fit(lo, hi)
         rejected: dict[str, int] = {}
         for o in on_seabed(objs, model, cfg.max_object_extent, cfg.min_object_height, rejected):
             key = (o.n_points, round(float(o.centroid[0]), 6), round(float(o.centroid[1]), 6))

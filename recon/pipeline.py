@@ -30,7 +30,8 @@ from recon.highlight import HighlightConfig, first_returns, frame_thresholds, on
 from recon.poll_seabed import object_points, on_seabed
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_band import BandConfig, OnsetTracker, seabed_returns
-from recon.seabed_texture import SeabedCells, TextureConfig, TexturedSeabed, fit_textured
+from recon.seabed_memory import SeabedMemory
+from recon.seabed_texture import TextureConfig, TexturedSeabed
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
@@ -78,8 +79,7 @@ class Reconstructor:
         self.poses = poses
         self.config = config or ReconConfig()
         self._pending: list[tuple[F64, F64, F64]] = []
-        self._seabed: list[F64] = []
-        self._n_seabed = 0  # rows in self._seabed (summing them per frame grew with the mission)
+        self.memory = SeabedMemory(self.config.seabed, self.config.texture)  # seabed samples (recon.seabed_memory)
         self._raw: list[F64] = []
         self._hist_origin: list[F64] = []
         self._hist_range: list[F64] = []
@@ -90,7 +90,6 @@ class Reconstructor:
         self._tracker = OnsetTracker(geometry.n_beams, self.config.band)
         self._onset_fit_frame = 0
         self._stream: StreamingClusterer | None = None
-        self._cells = SeabedCells(self.config.texture.cell)  # filled only with the texture grid on
         self.seabed: TexturedSeabed | SeabedModel | None = None  # the model of the latest poll
         self.rejected: dict[str, int] = {"too_wide": 0, "too_low": 0}
         self.objects: list[DetectedObject] = []
@@ -110,12 +109,8 @@ class Reconstructor:
 
     # ---------------------------------------------------------------- frames
     def add_seabed_points(self, points: ArrayLike) -> None:
-        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        if p.shape[0]:
-            self._seabed.append(p)
-            self._n_seabed += p.shape[0]
-            if self.config.texture.enabled:
-                self._cells.add(p)
+        """Seabed points (the DVL's bottom points, world NED m) for the tiled planes and the texture grid."""
+        self.memory.add(points)
 
     def add_frame(self, t: float, image: NDArray[np.uint8]) -> int:
         """One frame; returns the number of highlight-extension points it gave."""
@@ -154,7 +149,7 @@ class Reconstructor:
         self._add_seabed_samples(sf, sb, sr, fi, bi, ri, onset, pos, rot)
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
         if self.config.texture.enabled and self.config.texture.highlights and fi.size:
-            self._cells.add(pts)  # the first returns before the onset: crests (objects: their cells are found)
+            self.memory.add_texture(pts)  # the first returns before the onset: crests (objects: their cells are found)
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if self._arc else np.zeros((fi.size, 0))
         if self.config.front_slope and self.config.front_slope_method == "carve":
             keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)
@@ -193,12 +188,8 @@ class Reconstructor:
         sparse = (sb % max(1, cfg.seabed_beam_step) == 0) & every_frame[sf] & (cfg.seabed_every > 0)
         keep = dense | sparse
         sp = project(g, sf[keep], sb[keep], sr[keep], pos, rot, "exact")
-        if tex:
-            self._cells.add(sp[dense[keep]])
-        sp = sp[sparse[keep]]
-        if sp.shape[0]:
-            self._seabed.append(np.asarray(sp, dtype=np.float64))
-            self._n_seabed += sp.shape[0]
+        self.memory.add_texture(sp[dense[keep]])
+        self.memory.add_planes(sp[sparse[keep]])
 
     def _onset(self, pos: F64, rot: Rotation, alt: F64) -> F64:
         """Expected seabed onset per frame and beam: the fitted seabed plane where the fan looks
@@ -229,7 +220,7 @@ class Reconstructor:
 
     def _seabed_model(self, pos: F64) -> SeabedModel | None:
         """Seabed model around ``pos`` for the onset, refitted when the data or the area changed."""
-        n_sb = self._n_seabed
+        n_sb = self.memory.n_planes
         lo, hi = pos[:, :2].min(axis=0), pos[:, :2].max(axis=0)
         cached = self._onset_cache
         if cached is not None:
@@ -246,7 +237,7 @@ class Reconstructor:
         if n_sb < self.config.seabed.min_points:
             return None
         pad = self.config.onset_radius
-        near = self._seabed_within(lo - pad, hi + pad)
+        near = self.memory.within(lo - pad, hi + pad)
         if near is None:
             return None
         try:
@@ -289,31 +280,13 @@ class Reconstructor:
 
     @property
     def seabed_points(self) -> F64:
-        return np.concatenate(self._seabed) if self._seabed else np.zeros((0, 3))
+        """Every plane sample so far (the DVL's bottom points and the sparse sonar seabed returns), world NED."""
+        return self.memory.points
 
     def seabed_depth_at(self, xy: ArrayLike, radius: float = 8.0) -> F64:
-        """Depth (m, NED) of the seabed fitted under each horizontal position ``xy`` ``(n, 2)`` from the
-        seabed points within ``radius`` m (DVL and sonar seabed returns); NaN where there are too few."""
-        q = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        out = np.full(q.shape[0], np.nan)
-        if q.shape[0] == 0 or self._n_seabed < self.config.seabed.min_points:
-            return out
-        sb = self.seabed_points
-        for i, c in enumerate(q):  # one small fit per object (a handful per poll)
-            near = self._seabed_within(c - radius, c + radius, sb)
-            if near is None:
-                continue
-            try:
-                out[i] = float(SeabedModel.fit(near, self.config.seabed).depth_at(c[None])[0])
-            except ReconError:
-                continue
-        return out
-
-    def _seabed_within(self, lo: F64, hi: F64, sb: F64 | None = None) -> F64 | None:
-        """Seabed points (of ``sb``, default all) with ``lo <= (N, E) <= hi``; None when fewer than a fit needs."""
-        sb = self.seabed_points if sb is None else sb
-        near = sb[np.all((sb[:, :2] >= lo) & (sb[:, :2] <= hi), axis=1)]
-        return near if near.shape[0] >= self.config.seabed.min_points else None
+        """Depth (m, NED) of the seabed fitted under each horizontal position ``xy`` ``(n, 2)``
+        (:meth:`recon.seabed_memory.SeabedMemory.depth_at`)."""
+        return self.memory.depth_at(xy, radius)
 
     @property
     def _arc(self) -> bool:
@@ -321,19 +294,8 @@ class Reconstructor:
 
     def fit_seabed(self, lo: F64, hi: F64) -> TexturedSeabed | SeabedModel | None:
         """The seabed over the box ``lo``-``hi`` (north, east), fitted once per poll: tiled planes from the
-        seabed points around it, and on them the texture grid (:mod:`recon.seabed_texture`)."""
-        pad = self.config.seabed.tile * 2.0
-        near = self._seabed_within(lo - pad, hi + pad)
-        if near is None:
-            return None
-        try:
-            coarse = SeabedModel.fit(near, self.config.seabed)
-        except ReconError:
-            return None
-        if not self.config.texture.enabled:
-            return coarse
-        m = max(self.config.texture.context_m, self.config.texture.window_m + self.config.texture.cell)
-        return fit_textured(self._cells, coarse, lo - m, hi + m, self.config.texture)
+        seabed points around it, and on them the texture grid (:meth:`recon.seabed_memory.SeabedMemory.fit`)."""
+        return self.memory.fit(lo, hi)
 
     def _filtered_pending(self) -> tuple[F64, F64, F64]:
         if not self._pending:
@@ -343,7 +305,7 @@ class Reconstructor:
             t = np.concatenate([b for _, b, _ in self._pending])
             e = np.concatenate([c for _, _, c in self._pending])
         self._pending = []
-        if not self.config.remove_seabed or not self._seabed:
+        if not self.config.remove_seabed or not self.memory:
             return p, t, e
         if p.shape[0] == 0:
             return p, t, e

@@ -1,0 +1,103 @@
+"""The seabed samples recon has seen so far, and the seabed models it fits from them.
+
+Two stores, both world NED m: the **plane samples** (the DVL's bottom points and the sparse sonar seabed returns,
+every ``seabed_every``-th frame and ``seabed_beam_step``-th beam) behind the tiled planes of :mod:`recon.seabed`,
+and the **texture grid** (:class:`recon.seabed_texture.SeabedCells`: per-cell sums of the dense seabed returns,
+the DVL points and the highlight points) behind :func:`recon.seabed_texture.fit_textured`. :meth:`SeabedMemory.fit`
+is the model of a poll (:class:`recon.pipeline.Reconstructor`, and :mod:`classify.clutter_synth`, which runs
+recon's seabed removal on synthesized patches): tiled planes from the plane samples around the box, and on them
+the texture grid. Memory grows with the samples kept (plane samples are a sparse subset) and with the area
+surveyed (the grid's cells), not with the frames.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from recon.errors import ReconError
+from recon.seabed import SeabedConfig, SeabedModel
+from recon.seabed_texture import SeabedCells, TextureConfig, TexturedSeabed, fit_textured
+
+F64 = NDArray[np.float64]
+
+
+class SeabedMemory:
+    """Plane samples and texture grid (module docstring); ``texture.enabled`` False keeps no grid."""
+
+    def __init__(self, seabed: SeabedConfig, texture: TextureConfig) -> None:
+        self.seabed_config, self.texture_config = seabed, texture
+        self.cells = SeabedCells(texture.cell)  # filled only with the texture grid on
+        self._planes: list[F64] = []
+        self.n_planes = 0  # rows in the plane samples (summing them per frame grew with the mission)
+
+    def __bool__(self) -> bool:
+        return self.n_planes > 0
+
+    def add(self, points: ArrayLike) -> None:
+        """Seabed points for both stores (the DVL's bottom points)."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        self.add_planes(p)
+        self.add_texture(p)
+
+    def add_planes(self, points: ArrayLike) -> None:
+        """Samples for the tiled planes only."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if p.shape[0]:
+            self._planes.append(p)
+            self.n_planes += p.shape[0]
+
+    def add_texture(self, points: ArrayLike) -> None:
+        """Samples for the texture grid only (ignored with the grid off)."""
+        if self.texture_config.enabled:
+            self.cells.add(points)
+
+    @property
+    def points(self) -> F64:
+        """Every plane sample so far (n, 3)."""
+        if len(self._planes) > 1:  # keep one array: later calls do not concatenate again
+            self._planes = [np.concatenate(self._planes)]
+        return self._planes[0] if self._planes else np.zeros((0, 3))
+
+    def within(self, lo: ArrayLike, hi: ArrayLike, points: F64 | None = None) -> F64 | None:
+        """Plane samples (of ``points``, default all) with ``lo <= (N, E) <= hi``; None when fewer than a fit
+        needs (``seabed.min_points``)."""
+        sb = self.points if points is None else points
+        near = sb[np.all((sb[:, :2] >= np.asarray(lo)) & (sb[:, :2] <= np.asarray(hi)), axis=1)]
+        return near if near.shape[0] >= self.seabed_config.min_points else None
+
+    def depth_at(self, xy: ArrayLike, radius: float = 8.0) -> F64:
+        """Depth (m, NED) of the seabed fitted under each horizontal position ``xy`` ``(n, 2)`` from the plane
+        samples within ``radius`` m; NaN where there are too few."""
+        q = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        out = np.full(q.shape[0], np.nan)
+        if q.shape[0] == 0 or self.n_planes < self.seabed_config.min_points:
+            return out
+        sb = self.points
+        for i, c in enumerate(q):  # one small fit per object (a handful per poll)
+            near = self.within(c - radius, c + radius, sb)
+            if near is None:
+                continue
+            try:
+                out[i] = float(SeabedModel.fit(near, self.seabed_config).depth_at(c[None])[0])
+            except ReconError:
+                continue
+        return out
+
+    def fit(self, lo: F64, hi: F64) -> TexturedSeabed | SeabedModel | None:
+        """The seabed over the box ``lo``-``hi`` (north, east m): tiled planes from the plane samples within two
+        tiles of it and, with the grid on, the texture grid over the box and ``context_m`` around it; None when
+        too few samples lie there."""
+        pad = self.seabed_config.tile * 2.0
+        near = self.within(lo - pad, hi + pad)
+        if near is None:
+            return None
+        try:
+            coarse = SeabedModel.fit(near, self.seabed_config)
+        except ReconError:
+            return None
+        tc = self.texture_config
+        if not tc.enabled:
+            return coarse
+        m = max(tc.context_m, tc.window_m + tc.cell)
+        return fit_textured(self.cells, coarse, lo - m, hi + m, tc)
