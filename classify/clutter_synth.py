@@ -87,7 +87,8 @@ def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
             memory.add(ln.dvl[s:e])  # as Reconstructor.add_seabed_points: planes and texture grid
             memory.add_planes(ln.sparse[(ln.sparse_frame >= s) & (ln.sparse_frame < e)])
             memory.add_texture(ln.texture[(ln.texture_frame >= s) & (ln.texture_frame < e)])
-            memory.add_texture(ln.points[sel])
+            if cfg.texture.highlights:  # as Reconstructor.add_frames: the first returns feed the grid too
+                memory.add_texture(ln.points[sel])
             if not sel.any():
                 continue
             p = ln.points[sel]
