@@ -10,7 +10,8 @@ shapes, for tests and benchmarks). Recon against the simulator's ground truth is
 layer: :mod:`auvlink.evaluation.simeval`.
 """
 
-from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster
+from recon.cluster import ClusterConfig, DetectedObject, cluster
+from recon.cluster_stream import StreamingClusterer
 from recon.errors import GeometryError, NavigationError, ReconError
 from recon.frames import Mounting, attitude
 from recon.highlight import HighlightConfig, extract

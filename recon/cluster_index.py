@@ -1,4 +1,4 @@
-"""The finalized objects of a :class:`recon.cluster.StreamingClusterer`, indexed for the late-point test.
+"""The finalized objects of a :class:`recon.cluster_stream.StreamingClusterer`, indexed for the late-point test.
 
 A point arriving after its object was finalized is "late" when it lies within ``eps`` (3D) of one of
 the object's points, or when its horizontal position comes within ``gap`` m of the object's

@@ -1,7 +1,7 @@
 """Fusion across passes: every point of one physical object, from every line and pass, in one cloud.
 
 A survey sees an object from several lines (adjacent swaths overlap, lines run both ways) and an
-object longer than one swath in parts. The streaming clusterer (:class:`recon.cluster.StreamingClusterer`)
+object longer than one swath in parts. The streaming clusterer (:class:`recon.cluster_stream.StreamingClusterer`)
 finalizes an object once the vehicle is past it; a later pass that sees it again makes a new cluster.
 :class:`ObjectStore` keeps the finalized objects; a new cluster whose horizontal box comes within
 ``gap`` m of a stored object's box is the same object seen again: it is aligned to the stored cloud

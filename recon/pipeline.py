@@ -21,7 +21,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from recon.cluster import ClusterConfig, DetectedObject, StreamingClusterer, cluster, make_object
+from recon.cluster import ClusterConfig, DetectedObject, cluster, make_object
+from recon.cluster_stream import StreamingClusterer
 from recon.errors import GeometryError, ReconError
 from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude

@@ -10,7 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from recon.cluster import ClusterConfig, StreamingClusterer, cluster, dbscan_labels, voxel_downsample
+from recon.cluster import ClusterConfig, cluster, dbscan_labels, voxel_downsample
+from recon.cluster_stream import StreamingClusterer
 from recon.ply import write_cloud, write_objects, write_ply
 
 CENTRES = np.array([[10.0, 0.5, 19.6], [18.0, -1.0, 19.5], [26.0, 1.2, 19.7], [35.0, 0.0, 19.4],

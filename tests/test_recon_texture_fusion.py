@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from recon.cluster import ClusterConfig, StreamingClusterer
+from recon.cluster import ClusterConfig
+from recon.cluster_stream import StreamingClusterer
 from recon.fusion import FusionConfig, ObjectStore, align_offset
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_texture import SeabedCells, TextureConfig, fit_textured, local_level
