@@ -17,11 +17,11 @@ they become clusters, which the classifier must call ``clutter``. They are synth
   seabed; the returns summed per range bin against recon's threshold give the highlight-extension points before
   the onset, the seabed returns after it, and the DVL's bottom points.
 * **Recon's own code** (:func:`recon_clusters`) with its default settings (:class:`recon.pipeline.ReconConfig`):
-  the seabed samples fill :class:`recon.seabed_texture.SeabedCells` as in
+  the seabed samples fill a :class:`recon.seabed_memory.SeabedMemory` as in
   :meth:`recon.pipeline.Reconstructor.add_frames`; every ``poll_m`` metres of a line (a poll), the points of
-  that stretch are filtered by :func:`recon.poll_seabed.object_points` against the tiled planes
-  (:meth:`recon.seabed.SeabedModel.fit`) and :func:`recon.seabed_texture.fit_textured` fitted from what was
-  seen so far; the points kept are clustered by :func:`recon.cluster.cluster` per line (the cloud of a first
+  that stretch are filtered by :func:`recon.poll_seabed.object_points` against the seabed
+  :meth:`recon.seabed_memory.SeabedMemory.fit` gives from what was seen so far (tiled planes and
+  texture grid); the points kept are clustered by :func:`recon.cluster.cluster` per line (the cloud of a first
   emission) and over all lines (the fused cloud), clusters :func:`recon.poll_seabed.on_seabed` calls too wide
   or too low are dropped, and the front-slope correction (:func:`recon.front_slope.replace_on_arcs`, blended
   by ``correction_blend``) is applied as the pipeline does.
@@ -87,8 +87,7 @@ def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
             memory.add(ln.dvl[s:e])  # as Reconstructor.add_seabed_points: planes and texture grid
             memory.add_planes(ln.sparse[(ln.sparse_frame >= s) & (ln.sparse_frame < e)])
             memory.add_texture(ln.texture[(ln.texture_frame >= s) & (ln.texture_frame < e)])
-            if cfg.texture.highlights:  # as Reconstructor.add_frames: the first returns feed the grid too
-                memory.add_texture(ln.points[sel])
+            memory.add_highlights(ln.points[sel])  # as Reconstructor.add_frames
             if not sel.any():
                 continue
             p = ln.points[sel]

@@ -149,8 +149,7 @@ class Reconstructor:
         self.last_returns = (fi, bi, ri)
         self._add_seabed_samples(sf, sb, sr, fi, bi, ri, onset, pos, rot)
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
-        if self.config.texture.enabled and self.config.texture.highlights and fi.size:
-            self.memory.add_texture(pts)  # the first returns before the onset: crests (objects: their cells are found)
+        self.memory.add_highlights(pts)
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if self._arc else np.zeros((fi.size, 0))
         if self.config.front_slope and self.config.front_slope_method == "carve":
             keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)

@@ -52,6 +52,12 @@ class SeabedMemory:
         if self.texture_config.enabled:
             self.cells.add(points)
 
+    def add_highlights(self, points: ArrayLike) -> None:
+        """The first returns before the onset (crests, and objects, whose cells the fit finds): texture samples too
+        when ``texture.highlights``."""
+        if self.texture_config.highlights:
+            self.add_texture(points)
+
     @property
     def points(self) -> F64:
         """Every plane sample so far (n, 3)."""

@@ -68,3 +68,14 @@ def test_too_few_samples_near_the_box() -> None:
     mem.add(_plane(500, rng, size=10.0))  # all of them far from the box below
     assert mem.fit(np.array([200.0, 200.0]), np.array([210.0, 210.0])) is None
     assert mem.within(np.array([200.0, 200.0]), np.array([210.0, 210.0])) is None
+
+
+def test_highlights_feed_the_grid_only_when_configured() -> None:
+    rng = np.random.default_rng(5)
+    crests = _plane(40, rng)
+    on = SeabedMemory(SeabedConfig(), TextureConfig())
+    on.add_highlights(crests)
+    assert len(on.cells) > 0 and on.n_planes == 0  # texture samples, never plane samples
+    off = SeabedMemory(SeabedConfig(), TextureConfig(highlights=False))
+    off.add_highlights(crests)
+    assert len(off.cells) == 0
