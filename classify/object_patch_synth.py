@@ -33,12 +33,12 @@ import zlib
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.sim.catalog import MATERIALS, class_material, object_pose
+from auvlink.sim.catalog import class_material, object_pose
 from auvlink.sim.scene import SceneObject
 from auvlink.sim.seabed import SeabedSurface
 from classify.clutter_synth import recon_clusters
 from classify.errors import SynthesisError
-from classify.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry
+from classify.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry, relative_to_steel
 from classify.synthesis_settings import SynthesisSettings
 from classify.views import training_cloud
 from recon.front_slope import replace_on_arcs
@@ -68,8 +68,7 @@ def draw_object_survey(class_name: str, vertices: F64, triangles: npt.NDArray[np
     the object's world vertices, and the first line's heading and the tilt (deg)."""
     seabed = draw_seabed(settings, rng, settings.object_patch_roughness_m)
     world, scene = _placed(class_name, vertices, triangles, seabed, float(rng.uniform(0.0, 360.0)))
-    mat, steel = class_material(class_name), MATERIALS["steel"]
-    reflection = (mat.weight * mat.reflection) / (steel.weight * steel.reflection)
+    reflection = relative_to_steel(class_material(class_name))
     tilt = math.radians(float(rng.uniform(min(settings.tilts_deg), max(settings.tilts_deg))))
     alt = float(rng.uniform(*settings.clutter_altitude_m))
     ground, swath = onset_geometry(alt, tilt, settings)

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.sim.catalog import MATERIALS
+from auvlink.sim.catalog import MATERIALS, Material
 from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
 from classify.scan_synth import HALF_FOV_DEG, arc_vectors, energy_first_return, sonar_rays
@@ -29,9 +29,15 @@ from classify.synthesis_settings import SynthesisSettings
 
 F64 = npt.NDArray[np.float64]
 _CHUNK = 64  # positions per energy evaluation
-#: the seabed's return relative to the steel the object synthesis is calibrated on (sand / steel, ~0.36)
-SEABED_REFLECTION = (MATERIALS["sand"].weight * MATERIALS["sand"].reflection
-                     / (MATERIALS["steel"].weight * MATERIALS["steel"].reflection))
+def relative_to_steel(material: Material) -> float:
+    """A material's return (weight x reflection coefficient) relative to the steel the object synthesis is
+    calibrated on (:data:`auvlink.sim.catalog.MATERIALS`)."""
+    steel = MATERIALS["steel"]
+    return (material.weight * material.reflection) / (steel.weight * steel.reflection)
+
+
+#: the seabed's return relative to steel's (sand / steel, ~0.36)
+SEABED_REFLECTION = relative_to_steel(MATERIALS["sand"])
 
 
 @dataclass
