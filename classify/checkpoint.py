@@ -5,7 +5,9 @@ Keys: ``format``, ``state_dict``, ``model_config`` (:class:`PointNetConfig`), ``
 ``n_points`` (points per cloud fed to the network), ``synthesis`` (:class:`SynthesisSettings`),
 ``train`` (:class:`TrainConfig`), ``metrics`` (any JSON-like dict), ``calibration`` (settings measured after
 training that inference applies: ``clutter_threshold``, the probability of ``clutter`` from which a cloud is
-called clutter; absent in older checkpoints, which load as before), ``members`` (optional: the state dicts of
+called clutter; absent in older checkpoints, which load as before; a threshold set later from survey replays
+keeps the held-out one as ``clutter_threshold_heldout`` and says where it came from in ``clutter_threshold_source``),
+``members`` (optional: the state dicts of
 further models of the same config, trained from other seeds; inference averages their probabilities with the
 first's, :class:`classify.ensemble.Ensemble`).
 """

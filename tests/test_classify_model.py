@@ -226,7 +226,7 @@ def test_ensemble_checkpoint_averages_its_members(tmp_path: Path) -> None:
     with torch.no_grad():
         for a, b in zip(nets, [ck.model, *ck.members], strict=True):
             assert torch.equal(a(x)[0], b(x)[0])
-    clf = Classifier.load(path, device=torch.device("cpu"))
+    clf = Classifier.load(path, device=torch.device("cpu"), yaw_views=1)
     assert clf.clutter_threshold == 0.7 and clf.model.cfg.width == 0.125
     clouds = [c.astype(np.float64) for c in x.numpy()]  # 64 points each: prepare only centres and scales them
     got = clf.probabilities(clouds)
@@ -235,8 +235,35 @@ def test_ensemble_checkpoint_averages_its_members(tmp_path: Path) -> None:
         mean = torch.stack([torch.softmax(n(prepared)[0], dim=1) for n in nets]).mean(dim=0).numpy()
     np.testing.assert_allclose(got, mean, atol=1e-5)
     np.testing.assert_allclose(got.sum(axis=1), 1.0, atol=1e-5)
-    single = Classifier.load(save_checkpoint(tmp_path / "one.pt", nets[0], ("a", "b", "c"), 64), torch.device("cpu"))
+    single = Classifier.load(save_checkpoint(tmp_path / "one.pt", nets[0], ("a", "b", "c"), 64), torch.device("cpu"),
+                             yaw_views=1)
     assert not np.allclose(single.probabilities(clouds), got, atol=1e-4)
     wide = PointNet(PointNetConfig(num_classes=3, width=0.25))
     with pytest.raises(CheckpointError, match="config"):
         save_checkpoint(tmp_path / "bad.pt", nets[0], ("a", "b", "c"), 64, members=[wide])
+
+
+def test_yaw_views_average_the_turned_clouds(tmp_path: Path) -> None:
+    """With ``yaw_views`` V the probabilities are the mean of those of the cloud turned by 0, 360/V, ... degrees
+    about its vertical axis; so a cloud turned by 360/V degrees gets the same answer, which one view does not."""
+    torch.manual_seed(1)
+    net = PointNet(PointNetConfig(num_classes=3, width=0.125)).eval()
+    path = save_checkpoint(tmp_path / "one.pt", net, ("a", "b", "c"), 64)
+    one = Classifier.load(path, torch.device("cpu"), yaw_views=1)
+    four = Classifier.load(path, torch.device("cpu"), yaw_views=4)
+    rng = np.random.default_rng(3)
+    cloud = rng.normal(size=(64, 3)) * [1.0, 0.3, 0.2] + [10.0, -4.0, 30.0]
+    centre = cloud[:, :2].mean(axis=0)
+
+    def turned(deg: float) -> np.ndarray:
+        a = np.radians(deg)
+        out = cloud.copy()
+        out[:, :2] = (cloud[:, :2] - centre) @ np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]) + centre
+        return out
+
+    views = one.probabilities([turned(d) for d in (0.0, 90.0, 180.0, 270.0)])
+    np.testing.assert_allclose(four.probabilities([cloud])[0], views.mean(axis=0), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(four.probabilities([turned(90.0)]), four.probabilities([cloud]), rtol=0, atol=1e-6)
+    assert np.abs(views[0] - views[1]).max() > 5e-6  # the network alone is not yaw-invariant
+    with pytest.raises(ValueError, match="yaw_views"):
+        Classifier.load(path, torch.device("cpu"), yaw_views=0)
