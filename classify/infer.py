@@ -44,7 +44,7 @@ DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "pointnet_default.pt"
 YAW_VIEWS = 4
 
 
-def yaw_views(x: torch.Tensor, views: int) -> torch.Tensor:
+def turned_views(x: torch.Tensor, views: int) -> torch.Tensor:
     """Normalized clouds ``(B, n, 3)`` (centred horizontally) as ``(B * views, n, 3)``: each turned about the
     vertical axis by ``0, 360 / views, ...`` degrees, the views of one cloud consecutive."""
     if views <= 1:
@@ -151,7 +151,7 @@ class Classifier:
                 j = i + 1
                 while j < len(prepared) and j - i < batch_size and len(prepared[j]) == n:
                     j += 1
-                x = yaw_views(torch.from_numpy(np.stack(prepared[i:j])).to(self.device), self.yaw_views)
+                x = turned_views(torch.from_numpy(np.stack(prepared[i:j])).to(self.device), self.yaw_views)
                 prob = torch.softmax(self.model(x)[0].float(), dim=1)
                 out[i:j] = prob.reshape(j - i, self.yaw_views, -1).mean(dim=1).cpu().numpy()
                 i = j

@@ -29,6 +29,8 @@ from classify.synthesis_settings import SynthesisSettings
 
 F64 = npt.NDArray[np.float64]
 _CHUNK = 64  # positions per energy evaluation
+
+
 def relative_to_steel(material: Material) -> float:
     """A material's return (weight x reflection coefficient) relative to the steel the object synthesis is
     calibrated on (:data:`auvlink.sim.catalog.MATERIALS`)."""
