@@ -16,6 +16,12 @@ factor bin and by failure kind (:mod:`auvlink.evaluation.surveys`); writes ``DIR
 and ``DIR/surveys.png`` and prints the table, then per true class its recall, failures and what its wrongly classified
 objects were called (``--json``: the pooled figures as JSON). Default seed 1.
 
+``--clutter-sweep`` (with ``--surveys``): also measure the clutter threshold on those surveys
+(:mod:`auvlink.evaluation.clutter_sweep`): the figures above stay those of the model's own threshold, and a table
+gives precision, recall and F1 at every threshold from 0.30 to 0.95, the best marked (``clutter_sweep`` in
+``surveys.json``). ``--calibrated-model OUT.pt`` (implies ``--clutter-sweep``): write a copy of the model with the
+best threshold (an existing file only with ``--force``).
+
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
 simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
 and write ``DIR/baseline2d.json`` and ``DIR/baseline2d_confusion.png`` beside the PointNet figures.
@@ -54,6 +60,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="--surveys: print the pooled figures as JSON")
     p.add_argument("--small", action="store_true", help="--surveys: 2 lines and 2 objects each (CI smoke)")
     p.add_argument("--keep-logs", action="store_true", help="--surveys: keep each survey's mission.mcap")
+    p.add_argument("--clutter-sweep", action="store_true",
+                   help="--surveys: also score every clutter threshold from 0.30 to 0.95 on those surveys")
+    p.add_argument("--calibrated-model", type=Path, default=None, metavar="OUT.pt",
+                   help="--surveys: write a copy of the model with the best clutter threshold of the sweep")
     p.add_argument("--baseline2d", action="store_true",
                    help="also train and evaluate the single-image 2D CNN baseline (a few minutes)")
     p.add_argument("--force", action="store_true", help="write into a non-empty DIR (files of the same names replaced)")
@@ -131,10 +141,16 @@ def _surveys(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise AuvlinkError(f"--workers must be >= 1, got {args.workers}")
     check_output_dir(args.out, force=args.force)  # the surveys' folders of an earlier run are replaced
+    calibrated = args.calibrated_model
+    if calibrated is not None:
+        from classify.infer import DEFAULT_MODEL
+
+        check_output_file(calibrated, force=args.force, inputs=[args.model or DEFAULT_MODEL],
+                          option="--calibrated-model", what="checkpoint")
     seed = 1 if args.seed is None else args.seed
     result = run_surveys(args.surveys, seed, args.out, workers=args.workers, model=args.model,
                          keep_logs=args.keep_logs, progress=not args.json,
-                         small=args.small)
+                         small=args.small, clutter_sweep=args.clutter_sweep or calibrated is not None)
     png = plot(result, args.out / "surveys.png")
     if args.json:
         print(json.dumps(to_jsonable({k: result[k] for k in ("seed", "command", "overall", "by_factor", "by_class")})))
@@ -143,4 +159,17 @@ def _surveys(args: argparse.Namespace) -> int:
         print("\nper true class (1 m, class must match):")
         print(class_table(result))
         print(f"written: {args.out / 'surveys.json'}, {png}")
+    cs = result.get("clutter_sweep")
+    if cs is not None:
+        from auvlink.evaluation.clutter_sweep import table, write_calibrated
+
+        if not args.json:
+            print(f"\nclutter threshold on these {len(result['surveys'])} surveys (1 m, class must match):")
+            print(table(cs["rows"], cs["model_threshold"], cs["best"]))
+        if calibrated is not None:
+            source = (f"auvlink eval --surveys {args.surveys} --seed {seed} --clutter-sweep: best F1 at 1 m, "
+                      f"{len(result['surveys'])} surveys")
+            path = write_calibrated(args.model, calibrated, cs["best"], source)
+            if not args.json:
+                print(f"written: {path} (clutter threshold {cs['model_threshold']:.2f} -> {cs['best']:.2f})")
     return 0

@@ -12,11 +12,18 @@ the scene's objects (:mod:`auvlink.evaluation.score`). The log is deleted after 
 Surveys run in ``workers`` processes (spawned, one thread each); the results do not depend on the
 number of workers. ``DIR/surveys.json`` holds the command, seed, every survey's draw, timings and
 scores, the pooled scores overall and per factor bin; ``DIR/surveys.png`` plots them.
+
+``clutter_sweep`` (``--clutter-sweep``): each survey is replayed with no cluster called clutter, and every
+classification's probability of clutter is recorded (:mod:`auvlink.evaluation.clutter_sweep`). The survey's
+score is that of the detections a run at the model's own threshold reports (the same detections, by the engine's
+rule), and ``surveys.json`` also holds the scores at every threshold of the sweep (``clutter_sweep``). The
+survey's ``out/`` then holds every cluster, those the model calls clutter too.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import multiprocessing as mp
 import os
 import shutil
@@ -25,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from auvlink.evaluation.clutter_sweep import GRID, apply_rule, best_threshold, model_threshold, sweep
 from auvlink.evaluation.draw import SurveyDraw, draw_surveys
 from auvlink.evaluation.score import by_class, by_factor, pool, score_survey
 from auvlink.jsonutil import to_jsonable
@@ -36,6 +44,7 @@ class SurveyJob:
     folder: Path
     model: Path | None = None
     keep_log: bool = False
+    clutter_threshold: float | None = None  # --clutter-sweep: the model's threshold (the survey is run at inf)
 
 
 def run_survey(job: SurveyJob) -> dict[str, Any]:
@@ -54,7 +63,9 @@ def run_survey(job: SurveyJob) -> dict[str, Any]:
     t0 = time.perf_counter()
     sim = simulate_to_log(load_scene(scene_path), log, progress=False, workers=1)
     t1 = time.perf_counter()
-    result = run_log(log, model=job.model, classify=True, progress=False)  # what `auvlink replay` runs
+    sweep_at = job.clutter_threshold
+    result = run_log(log, model=job.model, classify=True, progress=False,  # what `auvlink replay` runs
+                     clutter_threshold=None if sweep_at is None else math.inf)
     out = folder / "out"
     with atomic_dir(out) as tmp:
         summary = write_outputs(result, tmp)
@@ -65,7 +76,13 @@ def run_survey(job: SurveyJob) -> dict[str, Any]:
     dets = [json.loads(x) for x in lines if x.strip()]
     truth = [(c, n, e) for c, n, e, _ in d.objects]
     rec = summary.get("recon") if isinstance(summary.get("recon"), dict) else {}
-    return {"index": d.index, "folder": str(folder), "draw": d.to_dict(), "factors": d.factors(),
+    extra: dict[str, Any] = {}
+    if sweep_at is not None:  # every cluster was reported: keep them all, score what the model reports
+        keys = ("id", "class", "position_ned", "size")
+        extra = {"detections_all": [{k: x.get(k) for k in keys} for x in dets], "truth": truth,
+                 "clutter_scores": [list(v) for v in result.clutter_scores]}
+        dets = apply_rule(dets, result.clutter_scores, sweep_at)
+    return {**extra, "index": d.index, "folder": str(folder), "draw": d.to_dict(), "factors": d.factors(),
             "mission_s": sim.duration_s, "sonar_frames": sim.frames.get("sonar", 0),
             "sim_wall_s": t1 - t0, "replay_wall_s": t2 - t1, "recon": rec,
             "detections": [{k: x.get(k) for k in ("id", "class", "score", "position_ned", "size", "n_points",
@@ -91,11 +108,14 @@ def _run(job: SurveyJob) -> dict[str, Any]:
 
 
 def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path | None = None,
-                keep_logs: bool = False, progress: bool = True, small: bool = False) -> dict[str, Any]:
+                keep_logs: bool = False, progress: bool = True, small: bool = False,
+                clutter_sweep: bool = False) -> dict[str, Any]:
     """Run ``n`` surveys of the draw ``seed`` into ``out``; returns (and writes) ``surveys.json``'s content.
-    ``small``: the CI smoke draw (:func:`auvlink.evaluation.draw.draw_survey`)."""
+    ``small``: the CI smoke draw (:func:`auvlink.evaluation.draw.draw_survey`); ``clutter_sweep``: see the module
+    docstring."""
     draws = draw_surveys(n, seed, small)
-    jobs = [SurveyJob(d, out / "surveys" / f"{d.index:03d}", model, keep_logs) for d in draws]
+    at = model_threshold(model) if clutter_sweep else None
+    jobs = [SurveyJob(d, out / "surveys" / f"{d.index:03d}", model, keep_logs, at) for d in draws]
     for j in jobs:  # a folder of an earlier run would mix its files with this run's
         if j.folder.exists():
             shutil.rmtree(j.folder)
@@ -116,9 +136,13 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
                     _progress(r, len(records), n, t0)
     records.sort(key=lambda r: int(r["index"]))
     result = summarize(records)
+    if at is not None:
+        rows = sweep(records, (*GRID, at))
+        result["clutter_sweep"] = {"model_threshold": at, "best": best_threshold(rows), "rows": rows}
     result.update({"seed": seed, "surveys_requested": n, "workers": workers, "wall_s": time.perf_counter() - t0,
                    "small": small,
-                   "command": f"auvlink eval --surveys {n} --seed {seed} --out {out}" + (" (small)" if small else "")})
+                   "command": f"auvlink eval --surveys {n} --seed {seed} --out {out}" + (" (small)" if small else "")
+                   + (" --clutter-sweep" if clutter_sweep else "")})
     out.mkdir(parents=True, exist_ok=True)
     (out / "surveys.json").write_text(json.dumps(to_jsonable(result), indent=1, allow_nan=True) + "\n")
     return result

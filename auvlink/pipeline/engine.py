@@ -111,7 +111,7 @@ class Engine:
                  recon_config: ReconConfig | None = None, classify: bool = True, model: Path | None = None,
                  on_detection: Callable[[Detection], None] | None = None,
                  clock: Callable[[], int] | None = None, strip_frames: int = 6, ring_frames: int = 200,
-                 on_frames: FramesObserver | None = None) -> None:
+                 on_frames: FramesObserver | None = None, clutter_threshold: float | None = None) -> None:
         self.setup = setup
         self.config = config or EngineConfig()
         self.t0_ns = t0_ns
@@ -134,6 +134,9 @@ class Engine:
         self._buf: list[Event] = []
         self._det_index: dict[int, int] = {}  # detection id -> its place in self.detections
         self._clutter: set[int] = set()  # ids of the clusters the classifier called clutter (not reported)
+        self._clutter_threshold = clutter_threshold  # None: the checkpoint's (math.inf: nothing called clutter)
+        #: (object id, probability of clutter) of every classification, in order: an id appears once per emission
+        self.clutter_scores: list[tuple[int, float]] = []
         self._frames: list[tuple[int, SonarPayload]] = []
         self._ring: deque[tuple[float, npt.NDArray[np.uint8]]] = deque(maxlen=ring_frames)
         self._strip_max = strip_frames
@@ -148,6 +151,8 @@ class Engine:
             from classify.infer import Classifier  # lazy: PyTorch loads only when a run classifies
 
             self._classifier = Classifier.load(self._model)
+            if self._clutter_threshold is not None:
+                self._classifier.clutter_threshold = float(self._clutter_threshold)
 
     def warm_up(self) -> None:
         """Load the classifier and the clustering library now, before the first frame: live does it
@@ -287,9 +292,13 @@ class Engine:
             self.load_classifier()
             assert self._classifier is not None
             # recon fitted the seabed once for the poll that made these objects, and each carries its depth
-            labels = self._classifier.classify_many([o.points for o in objects],
-                                                    [float(o.seabed_depth) for o in objects],
-                                                    allow_clutter=[int(o.id) not in self._det_index for o in objects])
+            clf = self._classifier
+            prob = clf.probabilities([o.points for o in objects],
+                                     seabed_depths=[float(o.seabed_depth) for o in objects])
+            labels = clf.decide(prob, allow_clutter=[int(o.id) not in self._det_index for o in objects])
+            if clf.clutter_index is not None:
+                self.clutter_scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index],
+                                                                             strict=True)]
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
         for o, (c, s) in zip(objects, labels, strict=True):

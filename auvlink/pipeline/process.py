@@ -45,13 +45,15 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
             progress: bool = True, recon_config: ReconConfig | None = None,
             engine_config: EngineConfig | None = None,
             on_detection: Callable[[Detection], None] | None = None,
-            config: VehicleConfig | None = None) -> MissionResult:
+            config: VehicleConfig | None = None, clutter_threshold: float | None = None) -> MissionResult:
     """The streaming engine on a log (``auvlink replay``): the same engine as ``auvlink live``.
 
     A log written by ``auvlink live`` carries the live engine settings and time origin; they are
     used unless ``engine_config`` is given, so the replay gives the live detections. ``config``
     (``--config``) replaces the vehicle configuration the log stores; a stored configuration that
-    fails validation is replaced by the defaults with one warning line on stderr.
+    fails validation is replaced by the defaults with one warning line on stderr. ``clutter_threshold``
+    replaces the checkpoint's (``math.inf``: no cluster is called clutter; the result's ``clutter_scores`` keep
+    every classification's probability of clutter, :mod:`auvlink.evaluation.clutter_sweep`).
     """
     t_start = time.perf_counter()
     with MissionLogReader(log) as reader:
@@ -66,7 +68,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     cfg = engine_config or (EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK))
     fans = FanRecorder()
     engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config, classify=classify, model=model,
-                    on_detection=on_detection, on_frames=fans)
+                    on_detection=on_detection, on_frames=fans, clutter_threshold=clutter_threshold)
     t_warm = time.perf_counter()
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
@@ -148,4 +150,4 @@ def result_of(engine: Engine, log: Path | None, timings: dict[str, float], stats
                          drops=dict(drops or {}), events=list(events or []), mode=mode,
                          engine=engine.config.to_dict(), georef=engine.georef.summary(),
                          track_info=engine.track_table(), t0_ns=engine.t0_ns or 0, poses=engine.poses(),
-                         fan_frames=list(fan_frames or []))
+                         fan_frames=list(fan_frames or []), clutter_scores=list(engine.clutter_scores))

@@ -125,6 +125,7 @@ class MissionResult:
     fan_frames: list[FanFrame] = field(default_factory=list)
     georef: dict[str, Any] = field(default_factory=dict)  # datum, anchor, closure, fix counts (Georef.summary)
     track_info: dict[str, np.ndarray] = field(default_factory=dict)  # the columns of track.csv
+    clutter_scores: list[tuple[int, float]] = field(default_factory=list)  # (id, P(clutter)) per classification
 
     def loss_json(self) -> dict[str, Any]:
         """What the log lost, as one JSON object: replay gives the reader's loss report (``state``,
