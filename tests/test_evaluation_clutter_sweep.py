@@ -19,6 +19,7 @@ def test_reported_ids_follow_the_engine_rule() -> None:
     assert reported_ids(scores, 0.0) == set()
     dets = [{"id": i, "class": "box", "position_ned": [0.0, 0.0, 0.0]} for i in (1, 2, 3, 4)]
     assert [d["id"] for d in apply_rule(dets, scores, 0.5)] == [1, 2, 4]
+    assert [d["id"] for d in apply_rule(dets, [], 0.5)] == [1, 2, 3, 4]  # no clutter output: nothing is clutter
 
 
 def test_best_threshold_is_the_middle_of_a_tie() -> None:

@@ -41,9 +41,11 @@ def reported_ids(scores: Iterable[tuple[int, float]], threshold: float) -> set[i
 def apply_rule(detections: Sequence[dict[str, Any]], scores: Iterable[tuple[int, float]],
                threshold: float) -> list[dict[str, Any]]:
     """The detections (``detections.jsonl`` lines of a run that called nothing clutter) a run at ``threshold``
-    reports."""
+    reports; an id without a score (a model without the ``clutter`` output) is always reported."""
+    scores = list(scores)
     keep = reported_ids(scores, threshold)
-    return [d for d in detections if int(d["id"]) in keep]
+    scored = {i for i, _ in scores}
+    return [d for d in detections if int(d["id"]) in keep or int(d["id"]) not in scored]
 
 
 def _f1(o: dict[str, Any]) -> float:
