@@ -73,6 +73,10 @@ def test_calibrated_model_from_the_command_line(tmp_path: Path, capsys: pytest.C
     cal = load_checkpoint(out).calibration
     assert cal["clutter_threshold"] == data["clutter_sweep"]["best"]
     assert "--clutter-sweep" in cal["clutter_threshold_source"]
+    assert main(["eval", "--surveys", "1", "--seed", "5", "--small", "--workers", "1", "--out",
+                 str(tmp_path / "json"), "--clutter-sweep", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["clutter_sweep"]["rows"] and "<- best" not in json.dumps(doc)
     before = out.read_bytes()
     assert main(["eval", "--surveys", "1", "--small", "--out", str(tmp_path / "again"),
                  "--calibrated-model", str(out)]) == 1

@@ -19,7 +19,7 @@ objects were called (``--json``: the pooled figures as JSON). Default seed 1.
 ``--clutter-sweep`` (with ``--surveys``): also measure the clutter threshold on those surveys
 (:mod:`auvlink.evaluation.clutter_sweep`): the figures above stay those of the model's own threshold, and a table
 gives precision, recall and F1 at every threshold from 0.30 to 0.95, the best marked (``clutter_sweep`` in
-``surveys.json``). ``--calibrated-model OUT.pt`` (implies ``--clutter-sweep``): write a copy of the model with the
+``surveys.json``, and in the ``--json`` output). ``--calibrated-model OUT.pt`` (implies ``--clutter-sweep``): write a copy of the model with the
 best threshold (an existing file only with ``--force``).
 
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
@@ -153,7 +153,8 @@ def _surveys(args: argparse.Namespace) -> int:
                          small=args.small, clutter_sweep=args.clutter_sweep or calibrated is not None)
     png = plot(result, args.out / "surveys.png")
     if args.json:
-        print(json.dumps(to_jsonable({k: result[k] for k in ("seed", "command", "overall", "by_factor", "by_class")})))
+        keys = ("seed", "command", "overall", "by_factor", "by_class", "clutter_sweep")
+        print(json.dumps(to_jsonable({k: result[k] for k in keys if k in result})))
     else:
         print(text_table(result))
         print("\nper true class (1 m, class must match):")
