@@ -19,8 +19,8 @@ objects were called (``--json``: the pooled figures as JSON). Default seed 1.
 ``--clutter-sweep`` (with ``--surveys``): also measure the clutter threshold on those surveys
 (:mod:`auvlink.evaluation.clutter_sweep`): the figures above stay those of the model's own threshold, and a table
 gives precision, recall and F1 at every threshold from 0.30 to 0.95, the best marked (``clutter_sweep`` in
-``surveys.json``, and in the ``--json`` output). ``--calibrated-model OUT.pt`` (implies ``--clutter-sweep``): write a copy of the model with the
-best threshold (an existing file only with ``--force``).
+``surveys.json``, and in the ``--json`` output). ``--calibrated-model OUT.pt`` (implies ``--clutter-sweep``):
+write a copy of the model with the best threshold (an existing file only with ``--force``).
 
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
 simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
