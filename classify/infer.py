@@ -40,6 +40,8 @@ from classify.normalize import normalize_cloud
 from classify.pointnet import PointNet, default_device
 
 DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "pointnet_default.pt"
+#: the clutter threshold of a checkpoint whose calibration has none
+DEFAULT_CLUTTER_THRESHOLD = 0.5
 #: views per cloud, turned about the vertical in equal steps, whose probabilities are averaged (1: the cloud as is)
 YAW_VIEWS = 4
 
@@ -100,7 +102,7 @@ class Classifier:
                                            ).to(self.device).fused().eval()
         #: index of ``clutter`` among the outputs (None: a model without it)
         self.clutter_index = self.class_names.index(CLUTTER) if CLUTTER in self.class_names else None
-        self.clutter_threshold = float(ckpt.calibration.get("clutter_threshold", 0.5))
+        self.clutter_threshold = float(ckpt.calibration.get("clutter_threshold", DEFAULT_CLUTTER_THRESHOLD))
 
     @classmethod
     def load(cls, path: Path | str | None = None, device: torch.device | None = None,

@@ -18,11 +18,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from auvlink.evaluation.score import pool, score_survey
+
+if TYPE_CHECKING:
+    from classify.checkpoint import Checkpoint
 
 #: the thresholds scored (and the model's own, added when it is not among them)
 GRID: tuple[float, ...] = tuple(round(float(t), 2) for t in np.arange(0.30, 0.951, 0.05))
@@ -87,14 +90,21 @@ def table(rows: Sequence[dict[str, Any]], model_threshold: float, best: float) -
     return "\n".join(out)
 
 
+def _checkpoint(model: Path | None) -> Checkpoint:
+    """The checkpoint ``model`` (None: the shipped one)."""
+    from classify.checkpoint import load_checkpoint
+    from classify.infer import DEFAULT_MODEL
+
+    return load_checkpoint(Path(model) if model is not None else DEFAULT_MODEL)
+
+
 def write_calibrated(model: Path | None, out: Path, threshold: float, source: str) -> Path:
     """A copy of the checkpoint ``model`` (None: the shipped one) at ``out`` whose ``clutter_threshold`` is
     ``threshold``; the one it had is kept as ``clutter_threshold_before``, and ``source`` says where the new one
     came from (``clutter_threshold_source``)."""
-    from classify.checkpoint import load_checkpoint, save_checkpoint
-    from classify.infer import DEFAULT_MODEL
+    from classify.checkpoint import save_checkpoint
 
-    ck = load_checkpoint(Path(model) if model is not None else DEFAULT_MODEL)
+    ck = _checkpoint(model)
     cal = dict(ck.calibration)
     cal["clutter_threshold_before"] = cal.get("clutter_threshold")
     cal["clutter_threshold"] = float(threshold)
@@ -104,9 +114,8 @@ def write_calibrated(model: Path | None, out: Path, threshold: float, source: st
 
 
 def model_threshold(model: Path | None) -> float:
-    """The clutter threshold the checkpoint ``model`` (None: the shipped one) applies."""
-    from classify.checkpoint import load_checkpoint
-    from classify.infer import DEFAULT_MODEL
+    """The clutter threshold the checkpoint ``model`` (None: the shipped one) applies (as
+    :class:`classify.infer.Classifier` reads it)."""
+    from classify.infer import DEFAULT_CLUTTER_THRESHOLD
 
-    ck = load_checkpoint(Path(model) if model is not None else DEFAULT_MODEL)
-    return float(ck.calibration.get("clutter_threshold", 0.5))
+    return float(_checkpoint(model).calibration.get("clutter_threshold", DEFAULT_CLUTTER_THRESHOLD))
