@@ -36,7 +36,7 @@ from auvlink.evaluation.simeval import (
     reconstruct,
     simulate,
 )
-from auvlink.pipeline.engine import default_recon_config
+from auvlink.pipeline.engine_config import default_recon_config
 from recon.cluster import ClusterConfig, cluster
 from recon.highlight import extract
 from recon.pipeline import ReconConfig

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from auvlink.pipeline.engine import EngineConfig
+from auvlink.pipeline.engine_config import EngineConfig
 from auvlink.pipeline.process import FRAME_BLOCK, run_log
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import loads_scene

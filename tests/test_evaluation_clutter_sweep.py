@@ -82,3 +82,39 @@ def test_calibrated_model_from_the_command_line(tmp_path: Path, capsys: pytest.C
                  "--calibrated-model", str(out)]) == 1
     assert "--force" in capsys.readouterr().err
     assert out.read_bytes() == before and not (tmp_path / "again" / "surveys.json").exists()
+
+
+def test_calibrate_model_sets_the_sweeps_best_threshold_in_place(tmp_path: Path) -> None:
+    """What ``auvlink train --calibrate-surveys`` runs after training: the checkpoint itself takes the sweep's best
+    threshold, keeps the one it had as ``clutter_threshold_before``, and says where the new one came from; its
+    weights are untouched; the surveys' results stay in the folder given."""
+    import torch
+
+    from auvlink.evaluation.surveys import calibrate_model
+    from classify.checkpoint import load_checkpoint
+
+    model = write_calibrated(None, tmp_path / "m.pt", 0.02, "test: a low threshold")
+    weights = load_checkpoint(model).model.state_dict()
+    cs = calibrate_model(model, 1, 5, tmp_path / "cal", workers=1, progress=False, small=True)
+    ck = load_checkpoint(model)
+    assert cs["surveys"] == 1 and cs["model_threshold"] == 0.02
+    assert ck.calibration["clutter_threshold"] == cs["best"] == best_threshold(cs["rows"])
+    assert ck.calibration["clutter_threshold_before"] == 0.02
+    assert "1 simulated surveys (draw seed 5, small)" in ck.calibration["clutter_threshold_source"]
+    assert all(torch.equal(v, ck.model.state_dict()[k]) for k, v in weights.items())
+    assert (tmp_path / "cal" / "surveys.json").exists()
+
+
+def test_train_refuses_bad_calibration_options_before_any_work(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    from auvlink.cli import main
+
+    out = tmp_path / "m.pt"
+    assert main(["train", "--out", str(out), "--calibrate-surveys", "0"]) == 1
+    assert "--calibrate-surveys must be >= 1" in capsys.readouterr().err
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    (busy / "keep.txt").write_text("mine")
+    assert main(["train", "--out", str(out), "--calibrate-surveys", "2", "--calibrate-out", str(busy)]) == 1
+    assert "--calibrate-out" in capsys.readouterr().err
+    assert not out.exists() and (busy / "keep.txt").read_text() == "mine"

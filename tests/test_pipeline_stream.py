@@ -12,7 +12,7 @@ from live_helpers import SCENE, TRUTH_NE
 
 from auvlink.evaluation.batch import run_log_batch
 from auvlink.pipeline.collect import MissionData
-from auvlink.pipeline.engine import EngineConfig
+from auvlink.pipeline.engine_config import EngineConfig
 from auvlink.pipeline.process import run_log
 from auvlink.pipeline.setup import MissionSetup, nav_config
 from auvlink.sim.mission import simulate_to_log

@@ -5,6 +5,13 @@ with the settings of ``--config`` (default: the shipped ``classify/data/train_de
 evaluates on held-out synthesized clouds and writes the checkpoint (class names, synthesis
 settings, model and training configuration, metrics). An existing ``--out`` is replaced only with
 ``--force`` (checked before any work); the checkpoint is written under a temporary name and renamed.
+
+The clutter threshold is first calibrated on held-out synthesized clouds. ``--calibrate-surveys N``
+(``--calibrate-seed S``, default 2; ``--workers K``) then sets it where it acts: N random surveys are
+simulated and replayed with the new model, every clutter threshold from 0.30 to 0.95 is scored
+(:mod:`auvlink.evaluation.clutter_sweep`), and the checkpoint takes the best one by F1 at 1 m (the held-out value
+is kept as ``clutter_threshold_before``). The surveys' folders go to ``--calibrate-out`` (default: a temporary
+folder, removed). Keep the calibration seed apart from the seeds you evaluate the model on.
 """
 
 from __future__ import annotations
@@ -12,7 +19,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from auvlink.atomic import check_output_file
+from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.errors import AuvlinkError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -30,10 +38,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--recon-eval", action="store_true",
                    help="also evaluate on clouds recon reconstructs from simulated passes (stored in the metrics)")
+    p.add_argument("--calibrate-surveys", type=int, default=None, metavar="N",
+                   help="set the clutter threshold from N random simulated surveys (best F1 at 1 m)")
+    p.add_argument("--calibrate-seed", type=int, default=2, metavar="S",
+                   help="draw seed of the calibration surveys (default 2; keep it apart from evaluation seeds)")
+    p.add_argument("--calibrate-out", type=Path, default=None, metavar="DIR",
+                   help="keep the calibration surveys' results in DIR (new or empty unless --force)")
+    p.add_argument("--workers", type=int, default=2, help="--calibrate-surveys: worker processes (default 2)")
 
 
 def run(args: argparse.Namespace) -> int:
     check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
+    if args.calibrate_surveys is not None:
+        if args.calibrate_surveys < 1:
+            raise AuvlinkError(f"--calibrate-surveys must be >= 1, got {args.calibrate_surveys}")
+        if args.workers < 1:
+            raise AuvlinkError(f"--workers must be >= 1, got {args.workers}")
+        if args.calibrate_out is not None:
+            check_output_dir(args.calibrate_out, force=args.force, option="--calibrate-out")
     # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)
     from auvlink.evaluation.recon_eval import recon_metrics
     from classify.config import load_train_settings, with_overrides
@@ -54,5 +76,20 @@ def run(args: argparse.Namespace) -> int:
         r = m["recon"]
         print(f"recon clouds of simulated passes ({r['n']} detected of {r['n_passes']}): accuracy {r['accuracy']:.3f}, "
               f"macro precision {r['macro']['precision']:.3f}, recall {r['macro']['recall']:.3f}")
+    if args.calibrate_surveys is not None:
+        _calibrate(args, out.path)
     print(f"checkpoint: {out.path} ({out.path.stat().st_size / 1e6:.2f} MB)")
     return 0
+
+
+def _calibrate(args: argparse.Namespace, model: Path) -> None:
+    """Set ``model``'s clutter threshold from a sweep over ``args.calibrate_surveys`` simulated surveys."""
+    from auvlink.evaluation.clutter_sweep import table
+    from auvlink.evaluation.surveys import calibrate_model
+
+    seed = args.calibrate_seed
+    cs = calibrate_model(model, args.calibrate_surveys, seed, args.calibrate_out, workers=args.workers,
+                         progress=not args.quiet)
+    print(f"clutter threshold on {cs['surveys']} calibration surveys (seed {seed}; 1 m, class must match):")
+    print(table(cs["rows"], cs["model_threshold"], cs["best"]))
+    print(f"clutter threshold {cs['model_threshold']:.2f} (held-out clouds) -> {cs['best']:.2f} (surveys)")

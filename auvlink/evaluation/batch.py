@@ -10,7 +10,7 @@ import numpy as np
 
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.collect import MissionData
-from auvlink.pipeline.engine import default_recon_config
+from auvlink.pipeline.engine_config import default_recon_config
 from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
 from auvlink.pipeline.process import FRAME_BLOCK
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry

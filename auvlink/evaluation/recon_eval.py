@@ -28,7 +28,7 @@ import numpy.typing as npt
 
 import recon
 from auvlink import sim
-from auvlink.pipeline.engine import default_recon_config
+from auvlink.pipeline.engine_config import default_recon_config
 from auvlink.progress import progress_bar
 from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng

@@ -27,12 +27,13 @@ import math
 import multiprocessing as mp
 import os
 import shutil
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from auvlink.evaluation.clutter_sweep import GRID, apply_rule, best_threshold, model_threshold, sweep
+from auvlink.evaluation.clutter_sweep import GRID, apply_rule, best_threshold, model_threshold, sweep, write_calibrated
 from auvlink.evaluation.draw import SurveyDraw, draw_surveys
 from auvlink.evaluation.score import by_class, by_factor, pool, score_survey
 from auvlink.jsonutil import to_jsonable
@@ -146,6 +147,23 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
     out.mkdir(parents=True, exist_ok=True)
     (out / "surveys.json").write_text(json.dumps(to_jsonable(result), indent=1, allow_nan=True) + "\n")
     return result
+
+
+def calibrate_model(model: Path, n: int, seed: int, folder: Path | None = None, *, workers: int = 1,
+                    progress: bool = True, small: bool = False) -> dict[str, Any]:
+    """Set the checkpoint ``model``'s clutter threshold, in place, to the best (F1 at 1 m) of a sweep over ``n``
+    surveys of the draw ``seed`` replayed with it (:func:`run_surveys` into ``folder``; None: a temporary folder,
+    removed). The threshold it had is kept as ``clutter_threshold_before``. Returns the sweep (``rows``, ``best``,
+    ``model_threshold``) and ``surveys`` (how many were scored)."""
+    with tempfile.TemporaryDirectory(prefix="auvlink-calibrate-") as tmp:
+        result = run_surveys(n, seed, Path(tmp) if folder is None else folder, workers=workers, model=model,
+                             progress=progress, small=small, clutter_sweep=True)
+    cs = dict(result["clutter_sweep"])
+    cs["surveys"] = len(result["surveys"])
+    source = (f"clutter sweep over {cs['surveys']} simulated surveys (draw seed {seed}"
+              + (", small" if small else "") + "): best F1 at 1 m")
+    write_calibrated(model, model, cs["best"], source)  # in place: loaded whole, written under a temporary name
+    return cs
 
 
 def _progress(r: dict[str, Any], k: int, n: int, t0: float) -> None:

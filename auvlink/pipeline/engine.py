@@ -32,70 +32,34 @@ import math
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial.transform import Rotation
 
 from auvlink.geodesy import Datum
+from auvlink.pipeline.engine_config import EngineConfig, default_recon_config
+from auvlink.pipeline.frame_gate import survey_frames
 from auvlink.pipeline.georef import Georef
 from auvlink.pipeline.latency import StageTimes
 from auvlink.pipeline.nav_inputs import Event, NavAdaptor, SonarPayload
+from auvlink.pipeline.object_labels import ObjectLabeller, make_detection
 from auvlink.pipeline.results import Detection, Poses, StripFrame
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from auvlink.records import Sample
 from classify.labels import CLUTTER
-from recon.cluster import ClusterConfig, DetectedObject, dbscan_labels
-from recon.highlight import HighlightConfig
+from recon.cluster import DetectedObject, dbscan_labels
 from recon.nav import pressure_to_depth
 from recon.nav_stream import CausalNavigator
 from recon.pipeline import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 
-if TYPE_CHECKING:
-    from classify.infer import Classifier
-
-TURN_WINDOW_S = 0.5  # s: the heading rate of a frame is its heading change over this time before it
-
 #: ``on_frames(geometry, times, images, returns)``: frames just reconstructed (mission times s, (F, bins,
 #: beams) uint8) and their highlight returns ((frame, beam, row) arrays, :attr:`Reconstructor.last_returns`)
 FramesObserver = Callable[[SonarGeometry, npt.NDArray[np.float64], npt.NDArray[np.uint8],
                            tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]], None]
-
-
-def default_recon_config() -> ReconConfig:
-    """The pipeline's reconstruction settings, chosen on simulated missions (see benchmarks/RESULTS.md).
-
-    Highlight threshold median + 4 MADs (the simulator's log-compressed frames: speckle up to ~85 grey
-    levels, objects 140-190; the k = 8 default of recon missed the box). Front-slope correction on
-    (arc re-placement): mean point-to-mesh distance 0.18 -> 0.03 m on the demo scene with true
-    navigation. DBSCAN eps 0.5 m keeps each reef, whose frames and openings leave gaps of 0.3-0.5 m,
-    in one cluster.
-    """
-    return ReconConfig(highlight=HighlightConfig(k=4.0), front_slope=True, front_slope_method="arc",
-                       cluster=ClusterConfig(eps=0.5))
-
-
-@dataclass(frozen=True)
-class EngineConfig:
-    """Settings that decide the results (stored in a live log, so its replay matches)."""
-
-    frame_block: int = 1  # sonar frames per reconstruction call (live: 1 for latency)
-    poll_s: float = 1.0  # mission seconds between streaming-clustering polls
-    max_extrapolation_s: float = 1.0  # a frame this far past the last navigation sample is skipped
-    max_pitch_deg: float = 15.0  # frames while the vehicle pitches more (diving, climbing) are skipped
-    max_turn_rate_deg_s: float = 6.0  # frames while the vehicle turns faster (line ends) are skipped
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> EngineConfig:
-        names = set(cls.__dataclass_fields__)
-        return cls(**{k: v for k, v in d.items() if k in names})
 
 
 @dataclass
@@ -127,16 +91,11 @@ class Engine:
         self.counts = {"frames": 0, "frames_processed": 0, "frames_without_navigation": 0, "polls": 0}
         self.rec: Reconstructor | None = None
         self.geometry: SonarGeometry | None = None
-        self._classify, self._model = classify, model
-        self._classifier: Classifier | None = None
+        self.labeller = ObjectLabeller(classify, model, clutter_threshold)
         self._on_detection, self._clock = on_detection, clock
         self._on_frames = on_frames
         self._buf: list[Event] = []
         self._det_index: dict[int, int] = {}  # detection id -> its place in self.detections
-        self._clutter: set[int] = set()  # ids of the clusters the classifier called clutter (not reported)
-        self._clutter_threshold = clutter_threshold  # None: the checkpoint's (math.inf: nothing called clutter)
-        #: (object id, probability of clutter) of every classification, in order: an id appears once per emission
-        self.clutter_scores: list[tuple[int, float]] = []
         self._frames: list[tuple[int, SonarPayload]] = []
         self._ring: deque[tuple[float, npt.NDArray[np.uint8]]] = deque(maxlen=ring_frames)
         self._strip_max = strip_frames
@@ -147,12 +106,12 @@ class Engine:
     # ------------------------------------------------------------------ input
     def load_classifier(self) -> None:
         """Load the classifier now (live does it before opening the ports)."""
-        if self._classify and self._classifier is None:
-            from classify.infer import Classifier  # lazy: PyTorch loads only when a run classifies
+        self.labeller.load()
 
-            self._classifier = Classifier.load(self._model)
-            if self._clutter_threshold is not None:
-                self._classifier.clutter_threshold = float(self._clutter_threshold)
+    @property
+    def clutter_scores(self) -> list[tuple[int, float]]:
+        """(object id, probability of clutter) of every classification, in order (:class:`ObjectLabeller`)."""
+        return self.labeller.scores
 
     def warm_up(self) -> None:
         """Load the classifier and the clustering library now, before the first frame: live does it
@@ -214,33 +173,11 @@ class Engine:
             done += self._group(group)
         return done
 
-    def _turn_rate(self, times: npt.NDArray[np.float64], rot: Rotation) -> npt.NDArray[np.float64]:
-        """|heading rate| (rad/s) at ``times``: the heading change over the ``TURN_WINDOW_S`` before each."""
-        earlier = times - TURN_WINDOW_S
-        known = self.nav.covered(earlier)
-        rate = np.zeros(times.size)
-        if known.any():
-            _, r0 = self.nav.pose_at(earlier[known])
-            d = rot[known].as_euler("ZYX")[:, 0] - r0.as_euler("ZYX")[:, 0]
-            rate[known] = np.abs((d + np.pi) % (2 * np.pi) - np.pi) / TURN_WINDOW_S
-        return rate
-
     def _group(self, group: list[tuple[int, SonarPayload]]) -> int:
         t_start = time.perf_counter()
         self.counts["frames"] += len(group)
         times = np.array([self._t(t) for t, _ in group])
-        ok = self.nav.covered(times)
-        self.counts["frames_without_navigation"] += int((~ok).sum())
-        if ok.any():  # diving or climbing: the seabed sweeps through the beam, no survey geometry
-            _, rot = self.nav.pose_at(times[ok])
-            steep = np.abs(rot.as_euler("ZYX")[:, 1]) > np.radians(self.config.max_pitch_deg)
-            self.counts["frames_pitched"] = self.counts.get("frames_pitched", 0) + int(steep.sum())
-            # turning at the end of a line: the fan sweeps sideways over seabed the fit ahead does not know,
-            # and the onset correction cannot follow it (false objects in every turn on rough, sloped seabeds)
-            turning = self._turn_rate(times[ok], rot) > np.radians(self.config.max_turn_rate_deg_s)
-            turning &= ~steep
-            self.counts["frames_turning"] = self.counts.get("frames_turning", 0) + int(turning.sum())
-            ok[np.flatnonzero(ok)[steep | turning]] = False
+        ok = survey_frames(self.nav, times, self.config, self.counts)
         for (_, fr), t in zip(group, times, strict=True):
             self._ring.append((float(t), fr.image))
         if not ok.any():
@@ -287,35 +224,15 @@ class Engine:
         if not objects:
             return
         t0 = time.perf_counter()
-        labels: list[tuple[str, float]] = [("unknown", 0.0)] * len(objects)
-        if self._classify:
-            self.load_classifier()
-            assert self._classifier is not None
-            # recon fitted the seabed once for the poll that made these objects, and each carries its depth
-            clf = self._classifier
-            prob = clf.probabilities([o.points for o in objects],
-                                     seabed_depths=[float(o.seabed_depth) for o in objects])
-            labels = clf.decide(prob, allow_clutter=[int(o.id) not in self._det_index for o in objects])
-            if clf.clutter_index is not None:
-                self.clutter_scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index],
-                                                                             strict=True)]
+        labels = self.labeller.label(objects, self._det_index)
+        if self.labeller.enabled:
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
         for o, (c, s) in zip(objects, labels, strict=True):
             if c == CLUTTER:  # not an object: counted, not reported (a later pass may make it one)
-                self._clutter.add(int(o.id))
                 continue
-            self._clutter.discard(int(o.id))
             shift = self.georef.shift(0.5 * (float(o.t_first) + float(o.t_last)), corrected=False)[0]
-            centre = np.asarray(o.centroid, dtype=np.float64) + shift
-            det = Detection(id=int(o.id), class_name=c, score=float(s),
-                            position_ned=(float(centre[0]), float(centre[1]), float(centre[2])),
-                            size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
-                            n_points=int(o.n_points), t_first=epoch + float(o.t_first),
-                            t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points,
-                            times=epoch + np.asarray(o.times, dtype=np.float64),
-                            passes=tuple((epoch + a, epoch + b) for a, b in getattr(o, "passes", ())),
-                            seabed_depth=float(o.seabed_depth) if np.isfinite(o.seabed_depth) else None)
+            det = make_detection(o, c, s, shift, epoch)
             self._locate(det, shift)
             k = self._det_index.get(det.id)
             if k is None:  # a new object
@@ -367,9 +284,9 @@ class Engine:
         return {**self.counts, "nav_samples": dict(self.nav.samples), "nav_late_samples": self.nav.late,
                 "frames_with_points": rec.frames_with_points if rec else 0, "points": rec.points_total if rec else 0,
                 "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections),
-                "rejected_clutter": len(self._clutter),
+                "rejected_clutter": len(self.labeller.clutter),
                 "rejected_not_objects": {**(dict(getattr(rec, "rejected", {})) if rec else {}),
-                                         "clutter": len(self._clutter)}}
+                                         "clutter": len(self.labeller.clutter)}}
 
     def track(self, step: int = 5) -> np.ndarray:
         """Vehicle positions in W (corrected for drift once the mission is finished)."""

@@ -1,0 +1,83 @@
+"""Classes for the objects the engine finalizes, and its clutter rule.
+
+:class:`ObjectLabeller` classifies the objects of one emission (one clustering poll) with the classifier, loaded
+on first use (PyTorch loads only when a run classifies), and records every classification's probability of
+``clutter`` (:attr:`ObjectLabeller.scores`, what ``auvlink eval --clutter-sweep`` replays the rule on). The rule:
+an object the classifier calls clutter is not reported (its id is counted in :attr:`ObjectLabeller.clutter`); a
+later pass fused into it (same id) is classified afresh, and an id once reported is never made clutter.
+:func:`make_detection` turns a finalized object and its class into the :class:`Detection` handed on.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Container, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from auvlink.pipeline.results import Detection
+from classify.labels import CLUTTER
+from recon.cluster import DetectedObject
+
+if TYPE_CHECKING:
+    from classify.infer import Classifier
+
+
+class ObjectLabeller:
+    """``enabled`` False: every object is ``unknown`` (no classifier). ``clutter_threshold`` replaces the
+    checkpoint's (None: the checkpoint's; ``math.inf``: nothing is called clutter)."""
+
+    def __init__(self, enabled: bool, model: Path | None, clutter_threshold: float | None = None) -> None:
+        self.enabled, self.model, self.clutter_threshold = enabled, model, clutter_threshold
+        self.classifier: Classifier | None = None
+        self.clutter: set[int] = set()  # ids of the clusters called clutter (not reported)
+        #: (object id, probability of clutter) of every classification, in order: an id appears once per emission
+        self.scores: list[tuple[int, float]] = []
+
+    def load(self) -> None:
+        """Load the classifier now (live does it before opening the ports)."""
+        if self.enabled and self.classifier is None:
+            from classify.infer import Classifier  # lazy: PyTorch loads only when a run classifies
+
+            self.classifier = Classifier.load(self.model)
+            if self.clutter_threshold is not None:
+                self.classifier.clutter_threshold = float(self.clutter_threshold)
+
+    def label(self, objects: Sequence[DetectedObject], reported: Container[int]) -> list[tuple[str, float]]:
+        """(class, score) per object; :data:`classify.labels.CLUTTER` for those not to report (never an id in
+        ``reported``). The clutter set follows: an id called clutter joins it, one reported leaves it."""
+        labels: list[tuple[str, float]] = [("unknown", 0.0)] * len(objects)
+        if self.enabled and objects:
+            self.load()
+            clf = self.classifier
+            assert clf is not None
+            # recon fitted the seabed once for the poll that made these objects, and each carries its depth
+            prob = clf.probabilities([o.points for o in objects],
+                                     seabed_depths=[float(o.seabed_depth) for o in objects])
+            labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects])
+            if clf.clutter_index is not None:
+                self.scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index],
+                                                                     strict=True)]
+        for o, (c, _) in zip(objects, labels, strict=True):
+            if c == CLUTTER:
+                self.clutter.add(int(o.id))
+            else:
+                self.clutter.discard(int(o.id))
+        return labels
+
+
+def make_detection(o: DetectedObject, class_name: str, score: float, shift: npt.NDArray[np.float64],
+                   epoch: float) -> Detection:
+    """The detection of the finalized object ``o``: its points and centre moved by ``shift`` (m, the frame D ->
+    W shift), its times made absolute (``epoch``: the mission's start, s since 1970)."""
+    centre = np.asarray(o.centroid, dtype=np.float64) + shift
+    return Detection(id=int(o.id), class_name=class_name, score=float(score),
+                     position_ned=(float(centre[0]), float(centre[1]), float(centre[2])),
+                     size=(float(o.extent[0]), float(o.extent[1]), float(o.extent[2])),
+                     n_points=int(o.n_points), t_first=epoch + float(o.t_first),
+                     t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points,
+                     times=epoch + np.asarray(o.times, dtype=np.float64),
+                     passes=tuple((epoch + a, epoch + b) for a, b in getattr(o, "passes", ())),
+                     seabed_depth=float(o.seabed_depth) if np.isfinite(o.seabed_depth) else None)
