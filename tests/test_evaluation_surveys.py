@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from auvlink.evaluation.draw import MIN_SEPARATION, SPACE, draw_survey, draw_surveys, onset_range
-from auvlink.evaluation.score import bin_label, by_class, pool, score_survey
+from auvlink.evaluation.score import bin_label, by_class, interval95, pool, score_survey
 from auvlink.sim.scene import CLASSES, loads_scene
 
 
@@ -73,6 +73,26 @@ def test_score_counts_every_failure_kind() -> None:
     assert rows["hemisphere"]["failures"]["wrong_class"] == 2 and rows["hemisphere"]["called"] == {"box": 2}
 
 
+def test_interval95_resamples_surveys() -> None:
+    """The bootstrap interval holds the pooled ratio, is a point when every survey has the same ratio, narrows with
+    more surveys, is reproducible, and is NaN where there is nothing to resample."""
+    rng = np.random.default_rng(3)
+    total = rng.integers(4, 9, 40).astype(float)
+    correct = np.minimum(total, rng.binomial(total.astype(int), 0.9)).astype(float)
+    lo, hi = interval95(correct, total)
+    ratio = correct.sum() / total.sum()
+    assert lo <= ratio <= hi and 0.0 < hi - lo < 0.15
+    assert interval95(correct, total) == (lo, hi)
+    lo4, hi4 = interval95(np.tile(correct, 4), np.tile(total, 4))
+    assert hi4 - lo4 < 0.7 * (hi - lo)
+    assert interval95(2 * total, 4 * total) == pytest.approx((0.5, 0.5))
+    assert all(math.isnan(v) for v in interval95([3.0], [4.0]) + interval95([0.0, 0.0], [0.0, 0.0]))
+    p = pool([{"detections": d, "objects": t, "correct_1m": c, "correct_2m": c, "located_1m": c, "located_2m": c,
+               "failures": dict.fromkeys(("split", "merged", "missed", "clutter", "wrong_class", "offset"), 0)}
+              for c, t, d in zip(correct, total, total, strict=True)])
+    assert p["recall_1m_ci95"] == (lo, hi) and p["precision_1m_ci95"] == (lo, hi)
+
+
 def test_bins() -> None:
     assert bin_label("roughness", 0.0) == "0-0.02" and bin_label("roughness", 0.10) == "0.05-0.1"
     assert bin_label("fps", 8.0) == "8-11" and bin_label("tilt_deg", 44.99) == "35-45"
@@ -83,7 +103,7 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     """The CI smoke: 2 small surveys of the space simulated, replayed and scored in two processes."""
     from auvlink.cli import main
     from auvlink.evaluation.surveys import summarize
-    from auvlink.evaluation.tables import class_table, text_table
+    from auvlink.evaluation.tables import class_table, interval_line, text_table
 
     assert main(["eval", "--surveys", "2", "--seed", "5", "--out", str(tmp_path), "--workers", "2", "--small"]) == 0
     data = json.loads((tmp_path / "surveys.json").read_text())
@@ -97,6 +117,7 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     o = res["overall"]
     assert o["objects"] == 4 and o["detections"] >= 1
     assert 0.0 <= o["precision_1m"] <= 1.0 and 0.0 <= o["recall_1m"] <= 1.0
+    assert len(o["recall_1m_ci95"]) == 2 and "95 % interval" in interval_line(res)
     assert "roughness" in text_table(res) and (tmp_path / "surveys.png").stat().st_size > 1000
     assert sum(r["objects"] for r in data["by_class"]) == 4 and data["by_class"] == res["by_class"]
     assert all(r["class"] in class_table(res) for r in res["by_class"])

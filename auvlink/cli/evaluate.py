@@ -133,7 +133,7 @@ def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Pat
 def _surveys(args: argparse.Namespace) -> int:
     from auvlink.errors import AuvlinkError
     from auvlink.evaluation.surveys import run_surveys
-    from auvlink.evaluation.tables import class_table, plot, text_table
+    from auvlink.evaluation.tables import class_table, interval_line, plot, text_table
     from auvlink.jsonutil import to_jsonable
 
     if args.surveys < 1:
@@ -157,6 +157,7 @@ def _surveys(args: argparse.Namespace) -> int:
         print(json.dumps(to_jsonable({k: result[k] for k in keys if k in result})))
     else:
         print(text_table(result))
+        print(interval_line(result))
         print("\nper true class (1 m, class must match):")
         print(class_table(result))
         print(f"written: {args.out / 'surveys.json'}, {png}")

@@ -49,6 +49,18 @@ def text_table(result: dict[str, Any]) -> str:
     return _layout(names, cells)
 
 
+def interval_line(result: dict[str, Any]) -> str:
+    """Overall precision and recall at 1 m with their 95 % intervals (bootstrap over the surveys)."""
+    o = result["overall"]
+
+    def one(name: str) -> str:
+        lo, hi = o.get(f"{name}_1m_ci95", (math.nan, math.nan))
+        return f"{name} {o[f'{name}_1m']:.3f} ({lo:.3f}-{hi:.3f})"
+
+    return (f"overall at 1 m, 95 % interval from a bootstrap over the {o['surveys']} surveys: {one('precision')}, "
+            f"{one('recall')}")
+
+
 def class_table(result: dict[str, Any]) -> str:
     """Per true class: objects, recall at 1 m, failures by kind, and what the wrongly classified were called."""
     names = ("class", "objects", "R_1m", *OBJECT_KINDS, "called")
