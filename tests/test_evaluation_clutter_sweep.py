@@ -27,6 +27,8 @@ def test_best_threshold_is_the_middle_of_a_tie() -> None:
                                                         (0.5, 0.93))]
     assert best_threshold(rows) == 0.4
     assert best_threshold(rows[:3]) == 0.35
+    assert best_threshold(rows, prefer=0.45) == 0.45  # the model's own threshold, when it is among the best
+    assert best_threshold(rows, prefer=0.5) == 0.4  # not among them: the middle
 
 
 def test_sweep_scores_what_a_run_at_the_threshold_reports(tmp_path: Path) -> None:
@@ -51,7 +53,7 @@ def test_sweep_scores_what_a_run_at_the_threshold_reports(tmp_path: Path) -> Non
     dropped = sum(len(b["detections_all"]) - len(b["detections"]) for b in swept["surveys"])
     assert dropped >= 1  # the low threshold made some cluster clutter: the rule was exercised
     cs = swept["clutter_sweep"]
-    assert cs["model_threshold"] == 0.02 and 0.3 <= cs["best"] <= 0.95
+    assert cs["model_threshold"] == 0.02 and cs["best"] == best_threshold(cs["rows"], prefer=0.02)
     row = next(r for r in cs["rows"] if r["threshold"] == 0.02)
     assert row["recall_1m"] == plain["overall"]["recall_1m"]
     assert row["precision_1m"] == plain["overall"]["precision_1m"]
@@ -98,7 +100,7 @@ def test_calibrate_model_sets_the_sweeps_best_threshold_in_place(tmp_path: Path)
     cs = calibrate_model(model, 1, 5, tmp_path / "cal", workers=1, progress=False, small=True)
     ck = load_checkpoint(model)
     assert cs["surveys"] == 1 and cs["model_threshold"] == 0.02
-    assert ck.calibration["clutter_threshold"] == cs["best"] == best_threshold(cs["rows"])
+    assert ck.calibration["clutter_threshold"] == cs["best"] == best_threshold(cs["rows"], prefer=0.02)
     assert ck.calibration["clutter_threshold_before"] == 0.02
     assert "1 simulated surveys (draw seed 5, small)" in ck.calibration["clutter_threshold_source"]
     assert all(torch.equal(v, ck.model.state_dict()[k]) for k, v in weights.items())

@@ -70,11 +70,15 @@ def sweep(records: Sequence[dict[str, Any]], thresholds: Iterable[float] = GRID)
     return rows
 
 
-def best_threshold(rows: Sequence[dict[str, Any]]) -> float:
-    """The threshold of the highest F1 at 1 m; of several equal ones, the middle one (the most margin)."""
+def best_threshold(rows: Sequence[dict[str, Any]], prefer: float | None = None) -> float:
+    """The threshold of the highest F1 at 1 m; of several equal ones, ``prefer`` (the model's own: a sweep that
+    cannot tell them apart gives no reason to move it) if it is among them, else the middle one (the most
+    margin)."""
     best = max(r["f1_1m"] for r in rows)
-    tied = [r["threshold"] for r in rows if r["f1_1m"] >= best - 1e-12]
-    return float(tied[(len(tied) - 1) // 2])
+    tied = sorted({float(r["threshold"]) for r in rows if r["f1_1m"] >= best - 1e-12})
+    if prefer is not None and float(prefer) in tied:
+        return float(prefer)
+    return tied[(len(tied) - 1) // 2]
 
 
 def table(rows: Sequence[dict[str, Any]], model_threshold: float, best: float) -> str:

@@ -139,7 +139,7 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
     result = summarize(records)
     if at is not None:
         rows = sweep(records, (*GRID, at))
-        result["clutter_sweep"] = {"model_threshold": at, "best": best_threshold(rows), "rows": rows}
+        result["clutter_sweep"] = {"model_threshold": at, "best": best_threshold(rows, at), "rows": rows}
     result.update({"seed": seed, "surveys_requested": n, "workers": workers, "wall_s": time.perf_counter() - t0,
                    "small": small,
                    "command": f"auvlink eval --surveys {n} --seed {seed} --out {out}" + (" (small)" if small else "")
