@@ -7,7 +7,8 @@ Keys: ``format``, ``state_dict``, ``model_config`` (:class:`PointNetConfig`), ``
 training that inference applies: ``clutter_threshold``, the probability of ``clutter`` from which a cloud is
 called clutter; absent in older checkpoints, which load as before; a threshold set later from survey replays
 keeps the one before as ``clutter_threshold_heldout`` (set by hand, session 23) or ``clutter_threshold_before``
-(``auvlink eval --surveys N --calibrated-model``) and says where it came from in ``clutter_threshold_source``),
+(``auvlink eval --surveys N --calibrated-model``, ``auvlink train --calibrate-surveys N``) and says where it came
+from in ``clutter_threshold_source``),
 ``members`` (optional: the state dicts of
 further models of the same config, trained from other seeds; inference averages their probabilities with the
 first's, :class:`classify.ensemble.Ensemble`).

@@ -57,6 +57,7 @@ def test_sweep_scores_what_a_run_at_the_threshold_reports(tmp_path: Path) -> Non
     row = next(r for r in cs["rows"] if r["threshold"] == 0.02)
     assert row["recall_1m"] == plain["overall"]["recall_1m"]
     assert row["precision_1m"] == plain["overall"]["precision_1m"]
+    assert row["recall_1m_ci95"] == plain["overall"]["recall_1m_ci95"]
     assert "--clutter-sweep" in swept["command"]
 
 

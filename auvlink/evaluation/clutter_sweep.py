@@ -58,13 +58,14 @@ def _f1(o: dict[str, Any]) -> float:
 
 def sweep(records: Sequence[dict[str, Any]], thresholds: Iterable[float] = GRID) -> list[dict[str, Any]]:
     """Per threshold the pooled scores over the survey records (each with ``detections_all``,
-    ``clutter_scores`` and ``truth``)."""
+    ``clutter_scores`` and ``truth``), with the 95 % intervals of precision and recall that the pool gives."""
     rows = []
     for t in sorted(set(float(x) for x in thresholds)):
         scores = [score_survey(apply_rule(r["detections_all"], [tuple(s) for s in r["clutter_scores"]], t),
                                [tuple(x) for x in r["truth"]]) for r in records]
         o = pool(scores)
         rows.append({"threshold": t, "precision_1m": o["precision_1m"], "recall_1m": o["recall_1m"],
+                     "precision_1m_ci95": o["precision_1m_ci95"], "recall_1m_ci95": o["recall_1m_ci95"],
                      "f1_1m": _f1(o), "detections_per_object": o["detections_per_object"],
                      "failures": o["failures"]})
     return rows
