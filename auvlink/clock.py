@@ -14,8 +14,3 @@ _OFFSET_NS = time.time_ns() - time.monotonic_ns()
 def now_ns() -> int:
     """Host receive time: monotonic, in UTC nanoseconds since the epoch."""
     return time.monotonic_ns() + _OFFSET_NS
-
-
-def monotonic_to_utc_ns(t_monotonic_ns: int) -> int:
-    """Map a ``time.monotonic_ns()`` reading of this process to the UTC scale of :func:`now_ns`."""
-    return t_monotonic_ns + _OFFSET_NS

@@ -30,10 +30,6 @@ class TransportTimeoutError(TransportError):
 
 
 # --- framing and decoding ----------------------------------------------------------------
-class FramingError(AuvlinkError):
-    """A byte stream could not be cut into frames (only raised where resync is impossible)."""
-
-
 class DecodeError(AuvlinkError):
     """A frame's bytes do not decode into a record."""
 
@@ -82,3 +78,9 @@ class ConfigError(AuvlinkError):
 # --- outputs -----------------------------------------------------------------------------
 class OutputError(AuvlinkError):
     """An output path cannot be used: it exists (without ``--force``), is an input, or cannot be written."""
+
+
+class InputOverwriteError(OutputError):
+    """An output is, or would replace, one of the command's inputs: refused even with ``--force`` (exit 2)."""
+
+    exit_status = 2

@@ -18,7 +18,6 @@ correction); they travel with the point and end up in :attr:`DetectedObject.extr
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -199,8 +198,3 @@ def cluster(points: ArrayLike, times: ArrayLike, config: ClusterConfig | None = 
     groups = label_groups(p, t, cluster_labels(p, cfg), cfg.min_cluster_points, extra_columns(extra, p.shape[0]))
     groups.sort(key=lambda g: (float(g[1].min()), float(g[0][:, 0].mean())))
     return [make_object(i, *g) for i, g in enumerate(groups)]
-
-
-def single_thread_env() -> None:
-    """Ask OpenMP (Open3D) for one thread; effective only before Open3D is first imported."""
-    os.environ.setdefault("OMP_NUM_THREADS", "1")

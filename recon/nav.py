@@ -138,10 +138,6 @@ def _gap_flag(grid: F64, t: F64, max_gap: float) -> NDArray[np.bool_]:
     return outside | (gap & ~on_sample)
 
 
-def _interp_angle(x: F64, xp: F64, fp: F64) -> F64:
-    return np.interp(x, xp, np.unwrap(fp))
-
-
 def dead_reckon(dvl: DvlSamples, gyro: GyroSamples, depth: DepthSamples,
                 config: NavConfig | None = None) -> Trajectory:
     """Integrate the navigation sensors into a :class:`Trajectory` (see the module docstring)."""

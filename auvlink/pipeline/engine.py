@@ -32,7 +32,6 @@ import math
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -60,12 +59,6 @@ from recon.sonar_geometry import SonarGeometry
 #: beams) uint8) and their highlight returns ((frame, beam, row) arrays, :attr:`Reconstructor.last_returns`)
 FramesObserver = Callable[[SonarGeometry, npt.NDArray[np.float64], npt.NDArray[np.uint8],
                            tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]], None]
-
-
-@dataclass
-class _Pending:
-    events: list[Event] = field(default_factory=list)
-    frames: list[tuple[int, SonarPayload]] = field(default_factory=list)
 
 
 class Engine:
