@@ -3,7 +3,7 @@
 Run: ``auvlink bench decode --out DIR`` (or ``python benchmarks/bench_decode.py --out DIR``).
 PD0 is measured on the real capture RDI_withBT.000 (../shared/data) through the framer and the
 codec, per frame and through the bulk (vectorized) path; dolfyn reads the same file in its own venv.
-``peers`` (docs/HELPERS.md contract): seconds per read of the whole file, ours (per-frame codec, bulk)
+``peers`` (docs/BENCHMARKS.md contract): seconds per read of the whole file, ours (per-frame codec, bulk)
 against dolfyn, ``ratio = dolfyn / ours``. Smoke mode (``AUVLINK_BENCH_SMOKE=1``): one repeat each,
 fewer sonar and gyro frames, and dolfyn only when its venv is already built.
 

@@ -16,7 +16,7 @@ Run: ``auvlink bench sim --out DIR`` (or ``python benchmarks/bench_sim.py --out 
   K = 512 range).
 - ``tradeoffs`` (K, range bins: seconds per frame with objects in view against the highlight error),
   ``peers`` (culling ``rays`` against ``none``, objects in view and seabed only) and ``stability``
-  (the culled images are byte-identical to the unculled ones) in the JSON contract of docs/HELPERS.md.
+  (the culled images are byte-identical to the unculled ones) in the JSON contract of docs/BENCHMARKS.md.
 - Log generation (:mod:`_sim_log`): a 3-minute (``--full``: 30-minute) survey at 10 fps with every
   device simulated into one MCAP log, in wall and CPU seconds (goal: 30 minutes in <= 60 s).
 - Smoke mode (``AUVLINK_BENCH_SMOKE=1``): 8 frames per kind, one repeat, every 8th survey pose probed.
@@ -171,7 +171,7 @@ def _culling(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]]) -> di
 
 def _contract(rows: list[dict[str, Any]], sweep: list[dict[str, Any]], bins: list[dict[str, Any]],
               identical: dict[str, Any], default_k: int) -> dict[str, list[dict[str, Any]]]:
-    """The ``tradeoffs``, ``peers`` and ``stability`` lists of docs/HELPERS.md."""
+    """The ``tradeoffs``, ``peers`` and ``stability`` lists of docs/BENCHMARKS.md."""
     trade = [{"knob": "rays per beam K", "setting": r["K"], "time_s": 1.0 / r["fps_objects"],
               "time_unit": "frame (objects in view)", "error": r["highlight_err_m"],
               "error_name": "highlight range error vs K=512 [m]", "default": r["K"] == default_k}

@@ -1,7 +1,7 @@
 """Numerical stability: a stress suite over extreme geometry, long missions and degenerate inputs.
 
 Run: ``auvlink bench stability --out DIR [--full]`` (or ``python benchmarks/bench_stability.py``).
-Every case is a ``stability`` row ({"case", "ok", "detail"}, docs/HELPERS.md); a failed row is a bug.
+Every case is a ``stability`` row ({"case", "ok", "detail"}, docs/BENCHMARKS.md); a failed row is a bug.
 
 - Geometry (:mod:`_stability_geometry`, hypothesis, derandomized): the seabed onset of every beam
   against a brute-force fan for tilts 0/30/60 deg, any heading, pitch and roll +-30 deg, 0.5-100 m

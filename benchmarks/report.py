@@ -1,6 +1,6 @@
 """``bench.html``: the benchmark report rendered from ``results.json`` (PNG plots beside it and embedded).
 
-Reads the JSON contract of docs/HELPERS.md: per stage, ``tradeoffs`` (one row per swept knob setting:
+Reads the JSON contract of docs/BENCHMARKS.md: per stage, ``tradeoffs`` (one row per swept knob setting:
 ``time_s`` per ``time_unit``, ``error`` named by ``error_name``, ``default``), ``peers`` (ours against a
 peer in the same run, ``ratio = peer_s / ours_s``) and ``stability`` (``case``, ``ok``, ``detail``).
 The report holds, per stage, its scalar figures and row tables; per knob a time-vs-error scatter with

@@ -1,8 +1,8 @@
-"""The README's Python API examples run as written, on a small simulated mission; the facade is lazy.
+"""The Python API examples of docs/API.md and the README run as written, on a small simulated mission.
 
-Every ```python block of the README's "Python API" section is executed in order, in one namespace,
-in a folder holding ``mission.mcap`` (the small mission) and ``dvl.pd0`` (its DVL frames, a raw
-capture); what they print is checked against the mission.
+Every ```python block of docs/API.md is executed in order, in one namespace, and the README's "Python API"
+section likewise in its own, in a folder holding ``mission.mcap`` (the small mission) and ``dvl.pd0`` (its DVL
+frames, a raw capture); what they print is checked against the mission. The facade stays lazy.
 """
 
 from __future__ import annotations
@@ -19,16 +19,30 @@ from small_mission import TRUTH, simulate_small
 
 from logs_format import MissionLogReader
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+API_DOC = ROOT / "docs" / "API.md"
 
 
-def api_blocks() -> list[str]:
-    text = README.read_text()
-    section = re.search(r"^## Python API\n(.*?)(?=^## )", text, re.S | re.M)
+def python_blocks(text: str) -> list[str]:
+    return re.findall(r"^```python\n(.*?)^```", text, re.S | re.M)
+
+
+def readme_api_blocks() -> list[str]:
+    section = re.search(r"^## Python API\n(.*?)(?=^## )", README.read_text(), re.S | re.M)
     assert section, "README has no '## Python API' section"
-    blocks = re.findall(r"^```python\n(.*?)^```", section.group(1), re.S | re.M)
-    assert len(blocks) >= 3, "the API section should show read, open_log and replay"
+    blocks = python_blocks(section.group(1))
+    assert blocks, "the README's Python API section has no python block"
     return blocks
+
+
+def run_blocks(path: Path, blocks: list[str]) -> list[str]:
+    namespace: dict[str, object] = {"__name__": "docs"}
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        for block in blocks:
+            exec(compile(block, str(path), "exec"), namespace)  # the documented examples, verbatim
+    return out.getvalue().splitlines()
 
 
 @pytest.fixture(scope="module")
@@ -40,20 +54,26 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-def test_readme_api_examples_run(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_api_doc_examples_run(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(folder)
-    namespace: dict[str, object] = {"__name__": "readme"}
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        for block in api_blocks():
-            exec(compile(block, str(README), "exec"), namespace)  # the README's examples, verbatim
-    lines = out.getvalue().splitlines()
+    blocks = python_blocks(API_DOC.read_text())
+    assert len(blocks) >= 4, "docs/API.md should show read, open_log, replay and mcap's reader"
+    lines = run_blocks(API_DOC, blocks)
     assert lines[0] == "134 ensembles, 0 undecodable", lines[:3]  # 26.7 s of DVL pings at 5 Hz
     assert lines[1].startswith("['can', 'dvl', 'gyro', 'pressure', 'sonar'") and lines[2] == "complete"
     assert lines[3] == "['ground_truth', 'software', 'vehicle_config']"
     assert re.fullmatch(r"\d{19} didson \(\d+, \d+\)", lines[4]), lines[4]
-    dets = lines[5:-1]
-    assert {d.split()[1] for d in dets} == set(TRUTH) and lines[-1].startswith("2 objects;"), lines
+    dets = lines[5:-2]
+    assert {d.split()[1] for d in dets} == set(TRUTH) and lines[-2].startswith("2 objects;"), lines
+    assert lines[-1] == "dvl Pd0Ensemble", lines[-1]
+
+
+def test_readme_api_example_runs(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(folder)
+    lines = run_blocks(README, readme_api_blocks())
+    assert lines[0].startswith("['can', 'dvl', 'gyro', 'pressure', 'sonar'") and lines[0].endswith("] complete")
+    dets = lines[1:-1]
+    assert {d.split()[1] for d in dets} == set(TRUTH) and lines[-1] == "2 objects", lines
 
 
 def test_replay_stops_when_the_consumer_breaks(folder: Path) -> None:

@@ -2,7 +2,7 @@
 
 This is the CI run that keeps the benchmark scripts from rotting (all stages in well under two minutes
 on the 2-core build machine). The figures are not meant to be quoted; the checks are that every stage
-ran without error, wrote its contract lists (docs/HELPERS.md) with sane values, that every stability
+ran without error, wrote its contract lists (docs/BENCHMARKS.md) with sane values, that every stability
 case holds, and that the report shows every plot.
 """
 
