@@ -4,7 +4,7 @@ Every mission here is rendered by the simulator (:mod:`auvlink.evaluation.simeva
 truth with the true navigation (except :func:`nav`, which replays a simulated log through the codecs).
 
 - :func:`accuracy`: the demo scene (8 objects, 5 m altitude, 30 deg tilt): mean and 95th-percentile
-  point-to-mesh distance for ``exact`` / ``paper`` geometry x front slope ``arc`` / ``carve`` / off.
+  point-to-mesh distance for ``exact`` / ``paper`` geometry x front slope on (arc re-placement) / off.
 - :func:`knobs`: ``tradeoffs`` rows, the time of the reconstruction alone (``add_frames`` + ``finish``)
   per frame against the mean point-to-mesh distance, one knob at a time from the pipeline's settings
   (the skip: the time of what it changes, highlight extraction + projection).
@@ -81,15 +81,12 @@ def scene_frames() -> dict[str, SimFrames]:
 
 
 def accuracy(frames: SimFrames) -> list[dict[str, Any]]:
-    """exact / paper x front slope arc / carve / off: point-to-mesh distances, objects, centroid errors."""
+    """exact / paper x front slope arc / off: point-to-mesh distances, objects, centroid errors."""
     base = pipeline_config()
     rows = []
     for geometry in ("exact", "paper"):
-        for fs in ("arc", "carve", "off"):
-            cfg = replace(base, front_slope=fs != "off", front_slope_method="carve" if fs == "carve" else "arc",
-                          highlight=replace(base.highlight, geometry=geometry))
-            if smoke() and fs == "carve":
-                continue
+        for fs in ("arc", "off"):
+            cfg = replace(base, front_slope=fs != "off", highlight=replace(base.highlight, geometry=geometry))
             ev = evaluate(frames, cfg)
             s = ev.summary()
             rows.append({"geometry": geometry, "front_slope": fs, "points": s["points"], "mean_m": s["mean_m"],
@@ -106,10 +103,6 @@ def knobs(frames: SimFrames, quick: bool) -> list[dict[str, Any]]:
     variants: list[tuple[str, str | float, ReconConfig]] = []
     for k in (4.0, 8.0) if smoke() else (3.0, 4.0, 6.0, 8.0):
         variants.append(("threshold k (median + k MAD)", k, replace(base, highlight=replace(hl, k=k))))
-    if not smoke():
-        variants.append(("threshold kind", "mad", base))
-        variants.append(("threshold kind", "percentile",
-                         replace(base, highlight=replace(hl, threshold="percentile"))))
     for g in ("exact", "paper"):
         variants.append(("geometry", g, replace(base, highlight=replace(hl, geometry=g))))
     for skip in (True, False):
@@ -117,8 +110,6 @@ def knobs(frames: SimFrames, quick: bool) -> list[dict[str, Any]]:
     for dt in ("float64", "float32"):
         variants.append(("dtype", dt, replace(base, highlight=replace(hl, dtype=dt))))
     slopes = [("arc", base), ("off", replace(base, front_slope=False))]
-    if not smoke():
-        slopes.insert(1, ("carve", replace(base, front_slope_method="carve")))
     for name, cfg in slopes:
         variants.append(("front slope", name, cfg))
     rows = []

@@ -8,8 +8,8 @@ Run: ``auvlink bench recon --out DIR`` (or ``python benchmarks/bench_recon.py --
   seabed-onset skip; one thread (threadpoolctl, OMP_NUM_THREADS=1) on one core (the process pinned to
   one CPU with ``sched_setaffinity`` while it is timed); best of several runs, wall and CPU time.
 - Simulated missions (:mod:`_recon_sim`): ``accuracy`` (demo scene, 5 m altitude, 30 deg tilt: mean and
-  95th-percentile point-to-mesh distance, exact / paper x front slope arc / carve / off), ``tradeoffs``
-  (threshold k and kind, geometry, skip, float32/float64, front slope: reconstruction time per frame
+  95th-percentile point-to-mesh distance, exact / paper x front slope arc / off), ``tradeoffs``
+  (threshold k, geometry, skip, float32/float64, front slope: reconstruction time per frame
   against the mean distance; DBSCAN eps and voxel size: clustering time per point against splits +
   merges + missed + spurious), ``scenes`` (the 7-object flat and 5 deg scenes: exactly one cluster per
   object, worst centroid error), ``nav`` (dead-reckoning drift over >= 1 km, noise on and off).

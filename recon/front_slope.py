@@ -1,4 +1,4 @@
-"""Front-slope correction of highlight-extension points: re-placement on the beam's arc (default), or carving.
+"""Front-slope correction of highlight-extension points: re-placement on the beam's range arc.
 
 Why: a highlight-extension return is placed on the steepest ray of its beam (phi = +s/2). While an
 object's top front edge E is the nearest surface in the fan it is the first return from a shallower
@@ -10,7 +10,7 @@ seabed H below the sonar is L = r_on (cos e0 - cos(t + s/2)), r_on = H / sin(t +
 range and sin e0 = (H - h) / r_on (0.35 m for h = 0.5 m, 0.64 m for h = 1 m at H = 4.8 m, t = 30 deg,
 s = 14 deg): the objects look longer towards the vehicle and their centroids move towards it.
 
-``arc`` (default, :func:`replace_on_arcs`): every point stays on its own range arc (same frame,
+:func:`replace_on_arcs`: every point stays on its own range arc (same frame,
 range and beam; elevation free in [-s/2, +s/2]) and is moved up that arc to the height of the
 object's top where the beam looked: the highest point of the same object within ``length`` m
 behind it along the beam's horizontal look direction and ``width`` m across. A point never lands
@@ -20,15 +20,6 @@ Applied per object once the object is final (its top is known only when the vehi
 it), so batch and streaming give the same points. Each point carries its ray as 10 columns
 (:func:`arc_columns`: sonar origin, the arc's unit vectors u and w in W, range); the arcs are those of
 the exact beam geometry, whatever the placement mode.
-
-``carve`` (:func:`carve_keep`, visibility carving): a point P from frame k is removed if an earlier
-frame j looked through it. Found weak on simulated missions: it cannot touch the first detections
-of an edge (no earlier frame saw the edge nearer than the onset), and with navigation noise of a
-few centimetres the range test removes true points too (1,267 of 1,302 on the demo mission).
-The carving test: for an earlier frame j (sonar origin o_j, R_WS,j), P in S_j has range rho,
-azimuth theta', elevation phi'; if P is inside that fan and frame j's first return in beam theta'
-is farther than rho + tol, P is removed. Frames with no highlight extension count with their seabed
-onset (a bound of their first return).
 """
 
 from __future__ import annotations
@@ -98,38 +89,3 @@ def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, 
     moved = top < p[:, 2]
     return np.where(moved[:, None], q, p)
 
-
-def carve_keep(points: F64, frame: NDArray[np.int64], origins: F64, m_ws: F64, r_first: F64, azimuths: F64,
-               spread: float, tol: float, baseline: tuple[float, float] = (0.2, 3.0), window: int = 64,
-               min_votes: int = 1) -> NDArray[np.bool_]:
-    """Keep-mask of ``points`` (N, 3) from timeline frames ``frame`` (N,).
-
-    ``origins`` (T, 3), ``m_ws`` (T, 3, 3) and ``r_first`` (T, beams, first-return range or a lower
-    bound of it) describe every frame of the timeline in time order; frames k - window .. k - 1
-    whose origin is ``baseline`` metres from frame k's are the witnesses.
-    """
-    n = points.shape[0]
-    if n == 0:
-        return np.ones(0, bool)
-    order = np.argsort(azimuths)
-    az_sorted = azimuths[order]
-    half = 0.5 * spread
-    lo, hi = baseline
-    # every (point, witness frame) pair at once
-    pi = np.repeat(np.arange(n), window)
-    jj = (frame[:, None] - np.arange(1, window + 1)[None, :]).ravel()
-    ok = jj >= 0
-    pi, jj = pi[ok], jj[ok]
-    base = np.linalg.norm(origins[jj] - origins[frame[pi]], axis=1)
-    sel = (base >= lo) & (base <= hi)
-    pi, jj = pi[sel], jj[sel]
-    p = np.einsum("nji,nj->ni", m_ws[jj], points[pi] - origins[jj])  # P in S_j
-    rho = np.linalg.norm(p, axis=1)
-    theta = np.arctan2(p[:, 1], p[:, 0])
-    phi = np.arcsin(np.clip(p[:, 2] / np.maximum(rho, 1e-12), -1.0, 1.0))
-    inside = (np.abs(phi) <= half) & (theta >= az_sorted[0]) & (theta <= az_sorted[-1]) & (p[:, 0] > 0)
-    k = np.clip(np.searchsorted(az_sorted, theta), 1, az_sorted.size - 1)
-    nearest = np.where(theta - az_sorted[k - 1] < az_sorted[k] - theta, k - 1, k)
-    looked_through = inside & (r_first[jj, order[nearest]] > rho + tol)
-    votes = np.bincount(pi, weights=looked_through, minlength=n)
-    return votes < min_votes

@@ -1,23 +1,18 @@
 """Highlight-extension returns: per frame and beam, the first return closer than the seabed onset.
 
 Threshold (adaptive, per frame; robust to speckle and to gain changes, since both statistics scale
-with the gain):
-- ``mad`` (default): median + k * 1.4826 * MAD of the water column, i.e. the rows before the
-  earliest seabed onset of the frame (a strided grid of about ``stats_samples`` pixels), from a
-  256-bin histogram;
-  the water column is mostly speckle, so this is the noise level, whatever objects occupy a
-  minority of it. MAD is floored at one grey level. k = 4 by default: on the simulator's
-  log-compressed frames the speckle median is ~50 with a MAD of ~10 grey levels (99.9 % below 85),
-  objects return 140-190, so k = 8 (threshold ~170) lost the weaker objects (the box of the demo).
-- ``percentile``: ``fraction`` times the ``percentile``-th percentile of the whole frame (the
-  seabed band is the bright reference).
-Either way the threshold is at least ``min_level``. A return is a bin above the threshold with at least
-``min_run`` bins above it (itself included) among the ``run_span_m`` of range that start there: an isolated
-speckle pixel is ignored, while a surface seen at a shallow angle may be. A beam's vertical fan meets a
-nearly level surface (the top of a half pipe or a hemisphere, the seabed) at ranges that grow with the
-elevation, and a sonar that samples the fan with a finite number of rays (the simulator: 32) returns such a
-surface as a comb of bright bins 3-15 bins apart (r d_elev / tan(elev)), not as a run; asking for
-consecutive bins found the half pipes and hemispheres in only a few frames, and most were missed.
+with the gain): median + k * 1.4826 * MAD of the water column, i.e. the rows before the earliest seabed
+onset of the frame (a strided grid of about ``stats_samples`` pixels), from a 256-bin histogram; the water
+column is mostly speckle, so this is the noise level, whatever objects occupy a minority of it. MAD is
+floored at one grey level. k = 4: on log-compressed frames the speckle median is ~50 with a MAD of ~10 grey
+levels (99.9 % below 85) while objects return 140-190. The threshold is at least ``min_level``.
+
+A return is a bin above the threshold with at least ``min_run`` bins above it (itself included) among the
+``run_span_m`` of range that start there: an isolated speckle pixel is ignored, while a surface seen at a
+shallow angle may be. A beam's vertical fan meets a nearly level surface (the top of a half pipe or a
+hemisphere, the seabed) at ranges that grow with the elevation, and a sonar that samples the fan with a finite
+number of rays returns such a surface as a comb of bright bins 3-15 bins apart (r d_elev / tan(elev)), not as a
+run of consecutive bins.
 
 Search (vectorized over beams and frames): boolean mask ``image > thr`` limited to rows < the
 beam's onset row minus a margin, first True by ``argmax``. With ``skip`` the search reads only
@@ -47,10 +42,7 @@ MAD_SCALE = 1.4826
 
 @dataclass(frozen=True)
 class HighlightConfig:
-    threshold: Literal["mad", "percentile"] = "mad"
     k: float = 4.0  # log-compressed frames: speckle within ~35 grey levels of the median, objects 90+ above
-    percentile: float = 99.5
-    fraction: float = 0.5
     min_level: int = 24
     min_run: int = 2  # bins above the threshold ...
     run_span_m: float = 0.25  # ... among this much range from the return's own bin (>= min_run bins)
@@ -121,23 +113,18 @@ def _hist_median(hist: NDArray[np.int64]) -> I64:
 def frame_thresholds(images: NDArray[np.uint8], stat_rows: int, cfg: HighlightConfig) -> F64:
     """Per-frame thresholds of a (F, bins, beams) uint8 stack (see the module docstring)."""
     f, n_bins, n_beams = images.shape
-    rows = n_bins if cfg.threshold == "percentile" or stat_rows < 8 else stat_rows
+    rows = n_bins if stat_rows < 8 else stat_rows
     cs = 4 if n_beams >= 32 else 1
     rs = max(1, int(rows * (n_beams // cs) / max(1, cfg.stats_samples)))
     sample = images[:, :rows:rs, ::cs]
     offs = (np.arange(f, dtype=np.int64) * 256)[:, None]
     flat = sample + offs[:, :, None]  # frame f's values in [256 f, 256 f + 256): one bincount for all
     hist = np.bincount(flat.ravel(), minlength=256 * f).reshape(f, 256)
-    if cfg.threshold == "percentile":
-        c = np.cumsum(hist, axis=1)
-        q = np.argmax(c >= (cfg.percentile / 100.0) * c[:, -1:], axis=1)
-        thr = cfg.fraction * q.astype(np.float64)
-    else:
-        med = _hist_median(hist)
-        dist = np.abs(np.arange(256)[None, :] - med[:, None]) + offs
-        dhist = np.bincount(dist.ravel(), weights=hist.ravel(), minlength=256 * f).reshape(f, 256)
-        mad = np.maximum(_hist_median(dhist.astype(np.int64)), 1).astype(np.float64)
-        thr = med + cfg.k * MAD_SCALE * mad
+    med = _hist_median(hist)
+    dist = np.abs(np.arange(256)[None, :] - med[:, None]) + offs
+    dhist = np.bincount(dist.ravel(), weights=hist.ravel(), minlength=256 * f).reshape(f, 256)
+    mad = np.maximum(_hist_median(dhist.astype(np.int64)), 1).astype(np.float64)
+    thr = med + cfg.k * MAD_SCALE * mad
     return np.maximum(thr, float(cfg.min_level))
 
 

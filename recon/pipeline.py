@@ -7,7 +7,7 @@ altitude, or the seabed fitted so far), highlight-extension points (:mod:`recon.
 every ``seabed_every``-th frame, the seabed returns at the onset. Points wait in a pending buffer
 with the range arc they came from; :meth:`poll` (streaming) or :meth:`finish` (batch) removes the
 seabed (:mod:`recon.seabed`, fitted from the DVL seabed points and the sonar seabed returns),
-clusters (:mod:`recon.cluster`) and, with ``front_slope`` (method ``arc``), moves each final
+clusters (:mod:`recon.cluster`) and, with ``front_slope``, moves each final
 object's front-slope points up their arcs (:mod:`recon.front_slope`) and its centroid away from the
 sonar by the far side it could not see (:mod:`recon.far_side`). Pure computation: no ports, no files.
 """
@@ -15,7 +15,7 @@ sonar by the far side it could not see (:mod:`recon.far_side`). Pure computation
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Literal, Protocol
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,7 +26,7 @@ from recon.cluster_stream import StreamingClusterer
 from recon.errors import GeometryError, ReconError
 from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude
-from recon.front_slope import arc_columns, carve_keep, replace_on_arcs
+from recon.front_slope import arc_columns, replace_on_arcs
 from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project, run_span_bins
 from recon.poll_seabed import object_points, on_seabed
 from recon.seabed import SeabedConfig, SeabedModel
@@ -49,14 +49,10 @@ class ReconConfig:
     highlight: HighlightConfig = field(default_factory=HighlightConfig)
     seabed: SeabedConfig = field(default_factory=SeabedConfig)
     cluster: ClusterConfig = field(default_factory=ClusterConfig)
-    front_slope: bool = True  # correct the front slope (recon.front_slope)
-    front_slope_method: Literal["arc", "carve"] = "arc"  # re-place on the range arcs, or visibility carving
-    front_slope_length: float = 1.0  # m: arc method, how far behind a point its object's top is sought
-    front_slope_width: float = 0.25  # m: arc method, across the look direction
-    front_slope_baseline: tuple[float, float] = (0.2, 3.0)  # m: distance of the witness frames
-    front_slope_window: int = 64  # frames kept as witnesses
-    front_slope_tol_bins: float = 1.5  # range tolerance of the carving test
-    far_side: FarSideConfig = field(default_factory=FarSideConfig)  # arc method: centroid (recon.far_side)
+    front_slope: bool = True  # correct the front slope: points re-placed on their range arcs (recon.front_slope)
+    front_slope_length: float = 1.0  # m: how far behind a point its object's top is sought
+    front_slope_width: float = 0.25  # m: across the look direction
+    far_side: FarSideConfig = field(default_factory=FarSideConfig)  # with front_slope: centroid (recon.far_side)
     seabed_every: int = 5  # sonar seabed returns from every n-th frame (0 = none)
     band: BandConfig = field(default_factory=BandConfig)  # each column's seabed return (recon.seabed_band)
     remove_seabed: bool = True
@@ -82,10 +78,6 @@ class Reconstructor:
         self._pending: list[tuple[F64, F64, F64]] = []
         self.memory = SeabedMemory(self.config.seabed, self.config.texture)  # seabed samples (recon.seabed_memory)
         self._raw: list[F64] = []
-        self._hist_origin: list[F64] = []
-        self._hist_range: list[F64] = []
-        self._hist_mws: list[F64] = []
-        self.front_slope_removed = 0
         self._onset_cache: tuple[F64, F64, int, SeabedModel] | None = None
         self._onset_model: SeabedModel | None = None  # the fit behind the latest expected onsets
         self._tracker = OnsetTracker(geometry.n_beams, self.config.band)
@@ -151,10 +143,6 @@ class Reconstructor:
         pts = project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype)
         self.memory.add_highlights(pts)
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if self._arc else np.zeros((fi.size, 0))
-        if self.config.front_slope and self.config.front_slope_method == "carve":
-            keep = self._carve(np.asarray(pts, dtype=np.float64), fi, bi, ri, pos, rot, onset)
-            self.front_slope_removed += int((~keep).sum())
-            pts, fi, arcs = pts[keep], fi[keep], arcs[keep]
         self.frames += ts.size
         self.frames_with_points += int(np.unique(fi).size)
         self.points_total += int(fi.size)
@@ -249,29 +237,6 @@ class Reconstructor:
         self._onset_fit_frame = self.frames
         return model
 
-    def _carve(self, pts: F64, fi: NDArray[np.int64], bi: NDArray[np.int64], ri: NDArray[np.int64], pos: F64,
-               rot: Rotation, onset: F64) -> NDArray[np.bool_]:
-        """Front-slope correction: keep-mask from visibility carving against earlier frames."""
-        g, cfg = self.geometry, self.config
-        m_wb = rot.as_matrix().reshape(-1, 3, 3)
-        m_ws = m_wb @ g.mounting.rotation.as_matrix()
-        origins = pos + m_wb @ g.mounting.lever
-        # beams without a highlight extension: the first return is the seabed at the expected onset
-        r_first = np.minimum(onset, g.window_start + g.window_length)
-        r_first[fi, bi] = g.ranges[ri]
-        h = len(self._hist_origin)
-        all_o = np.concatenate([np.asarray(self._hist_origin).reshape(-1, 3), origins])
-        all_m = np.concatenate([np.asarray(self._hist_mws).reshape(-1, 3, 3), m_ws])
-        all_r = np.concatenate([np.asarray(self._hist_range).reshape(-1, g.n_beams), r_first])
-        keep = carve_keep(pts, fi + h, all_o, all_m, all_r, g.azimuths, g.spread,
-                          cfg.front_slope_tol_bins * g.bin_size, cfg.front_slope_baseline,
-                          cfg.front_slope_window)
-        w = cfg.front_slope_window
-        self._hist_origin = list(all_o[-w:])
-        self._hist_mws = list(all_m[-w:])
-        self._hist_range = list(all_r[-w:])
-        return keep
-
     # ---------------------------------------------------------------- objects
     @property
     def raw_points(self) -> F64:
@@ -290,7 +255,7 @@ class Reconstructor:
 
     @property
     def _arc(self) -> bool:
-        return self.config.front_slope and self.config.front_slope_method == "arc"
+        return self.config.front_slope
 
     def fit_seabed(self, lo: F64, hi: F64) -> TexturedSeabed | SeabedModel | None:
         """The seabed over the box ``lo``-``hi`` (north, east), fitted once per poll: tiled planes from the

@@ -13,12 +13,9 @@ depth above the tiled planes, compared with the level of its neighbourhood (``wi
 side): a plane fitted by least squares to the neighbourhood's seabed cells (cells without samples, in a narrow
 swath or an object's shadow, do not count), evaluated at the cell (:func:`local_level`), recomputed ``iterations``
 times without the object cells found. A plane, not the mean: a neighbourhood covered on one side only (a swath's
-edge, gaps) puts the mean of a tilted seabed off the cell's level (on a 0.03 m rms seabed of 8 deg slope the cells'
-spread about the mean was 0.05-0.14 m, about the plane 0.03 m, so the object-cell threshold stood at 0.2-0.4 m
-and a 0.3 m half pipe went into the seabed). The neighbourhood planes are fitted to the cell means less one
-plane through all of the box's cells, not less the tiled planes: each tile's plane follows the texture of its
-6 m and their blend bends where tiles meet, most at a survey's first seconds when few points set the tiles; a
-bend under a crest put it 3 sigma out of its neighbourhood's plane (a false object on a 0.07 m rms seabed).
+edge, gaps) puts the mean of a tilted seabed off the cell's level. The neighbourhood planes are fitted to the cell
+means less one plane through all of the box's cells, not less the tiled planes: each tile's plane follows the
+texture of its 6 m and their blend bends where tiles meet.
 Objects stand out of their neighbourhood by far more than the texture does: a cell higher than
 the neighbourhood by ``clip_k`` robust sigmas of those differences (measured on the box, so the
 threshold follows the seabed at hand; over all of its cells, the object cells of the last round too: a spread
@@ -41,7 +38,6 @@ more (the first seconds of a line hold few, and an object among them would set i
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -60,7 +56,6 @@ class TextureConfig:
     context_m: float = 8.0  # m of seabed around the new points that each fit sees (objects a minority in it)
     clip_k: float = 3.0  # object cell: higher than its neighbourhood by this many robust sigmas
     iterations: int = 3  # rounds of: level of the seabed cells around, object cells out
-    level: Literal["plane", "mean"] = "plane"  # the neighbourhood's level at a cell: a fitted plane, or the mean
     level_ridge: float = 0.1  # cells^2: pulls a window's plane to the box plane's slope where its cells do not span it
     sigma_floor: float = 0.02  # m: floor of that sigma (a smooth seabed)
     min_count: int = 2  # samples for a cell to count
@@ -192,11 +187,11 @@ class TexturedSeabed:
         return max(floor, min(self.config.k_sigma * self.sigma, self.config.max_threshold))
 
 
-def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None) -> F64:
+def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float) -> F64:
     """Level of the grid ``r`` (nx, ny) at each cell from the cells ``use`` of the ``size`` x ``size`` window
     around it: the least-squares plane through them evaluated at the cell (``ridge`` (cells^2) x their count
     added to the slope terms' normal equations: a window whose cells lie on a line or a point gets a flat
-    plane along the directions they do not span), or their mean (``ridge`` None). NaN where the window holds no
+    plane along the directions they do not span). NaN where the window holds no
     cell of ``use``. Vectorized: window sums of the moments (``uniform_filter``) and one batched 3 x 3 solve."""
     w = use.astype(np.float64)
     rw = np.where(use, r, 0.0)
@@ -206,8 +201,6 @@ def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float | None) 
 
     s0, sr = wsum(w), wsum(rw)
     empty = s0 <= 1e-9
-    if ridge is None:
-        return np.where(empty, np.nan, sr / np.maximum(s0, 1e-9))
     x, y = np.meshgrid(np.arange(r.shape[0], dtype=np.float64), np.arange(r.shape[1], dtype=np.float64),
                        indexing="ij")
     sx, sy, sxx, sxy, syy = wsum(w * x), wsum(w * y), wsum(w * x * x), wsum(w * x * y), wsum(w * y * y)
@@ -256,10 +249,8 @@ def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: Arr
                + i0 + 0.5) * c
     base = coarse.depth_at(centres.reshape(-1, 2)).reshape(n.shape)
     r = mean - base  # + deeper than the planes
-    plane = config.level == "plane"
-    # the neighbourhood planes are fitted to the depth less one plane through the box (the tiles bend); the
-    # means to the depth less the tiles (a plane through a box of a curved seabed is off its level)
-    shift = box_plane(mean, ok) - base if plane and ok.any() else np.zeros(n.shape)
+    # the neighbourhood planes are fitted to the depth less one plane through the box (the tiles bend)
+    shift = box_plane(mean, ok) - base if ok.any() else np.zeros(n.shape)
     size = 2 * max(1, round(config.window_m / c)) + 1
     objects = np.zeros(n.shape, bool)
     med = np.zeros(n.shape)
@@ -270,7 +261,7 @@ def fit_textured(cells: SeabedCells, coarse: SeabedModel, lo: ArrayLike, hi: Arr
             break
         # the level of the seabed cells of the window: empty cells (a narrow swath, the shadows behind objects)
         # and the object cells found so far do not count
-        med = local_level(r - shift, use, size, config.level_ridge if plane else None) + shift
+        med = local_level(r - shift, use, size, config.level_ridge) + shift
         med = np.where(np.isnan(med), float(np.median(r[use])), med)  # no seabed cell within the window
         d = r - med
         dv = d[ok]  # all cells: the spread of the seabed cells alone shrinks as the crests go to the objects

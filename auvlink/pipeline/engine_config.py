@@ -20,7 +20,7 @@ def default_recon_config() -> ReconConfig:
     navigation. DBSCAN eps 0.5 m keeps each reef, whose frames and openings leave gaps of 0.3-0.5 m,
     in one cluster.
     """
-    return ReconConfig(highlight=HighlightConfig(k=4.0), front_slope=True, front_slope_method="arc",
+    return ReconConfig(highlight=HighlightConfig(k=4.0), front_slope=True,
                        cluster=ClusterConfig(eps=0.5))
 
 
