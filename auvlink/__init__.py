@@ -1,4 +1,8 @@
-"""auvlink: sensor drivers, wire formats and transports for an AUV with a forward-scan imaging sonar.
+"""auvlink: an AUV with a forward-scan imaging sonar, from its ports to named objects on the chart.
+
+Transports, framers, codecs and drivers for its instruments (the core); the simulator (:mod:`auvlink.sim`);
+the detection pipeline, live and on replay (:mod:`auvlink.pipeline`); evaluation (:mod:`auvlink.evaluation`);
+the ``auvlink`` command (:mod:`auvlink.cli`). Layers: docs/ARCHITECTURE.md.
 
 The Python API (:mod:`auvlink.api`, loaded on first use so that ``import auvlink`` stays light):
 

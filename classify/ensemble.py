@@ -1,14 +1,10 @@
 """Several PointNets trained alike from different seeds, read as one: ``forward`` gives the log of their mean
 class probabilities, so ``softmax`` of it is that mean and ``argmax`` its most probable class.
 
-Why: trained from seeds 0-3 with the same settings, single models named 61-106 of 2067 objects of random surveys
-wrongly (clouds recon made of 8 earlier evaluation seeds), mostly at the class boundaries the seabed's texture
-blurs (hemisphere / box, reef_b / reef_a) and with the clutter threshold; their mean named 60 wrongly with seed 1's
-clutter threshold, 75 with the threshold calibrated on the mean (11 of them objects called clutter; 64 between
-object classes, against 61-73 for the single seeds). The spread between seeds is larger than the effect of most
-training changes, so the shipped model averages them (``[train] members``,
-:func:`classify.workflow.train_and_save`); on two fresh seeds of 40 surveys it raised P / R from 0.945 / 0.925 to
-0.959 / 0.938 (benchmarks/RESULTS.md, session 19).
+Models trained with the same settings from different seeds disagree most at the class boundaries that the
+seabed's texture blurs (hemisphere / box, reef_b / reef_a) and on the clutter threshold; their mean is steadier
+than any one of them. ``[train] members`` sets how many a checkpoint holds (the first plus ``members - 1``
+further seeds, :func:`classify.workflow.train_and_save`); :mod:`classify.checkpoint` saves them in one file.
 """
 
 from __future__ import annotations

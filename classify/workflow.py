@@ -32,11 +32,8 @@ from classify.synthesis import SynthesisSettings
 from classify.train import TrainResult, train
 
 #: the share of clutter among the clusters recon hands the classifier, which weighs the two errors in the
-#: threshold's choice (:func:`calibrate_clutter`). Measured on random surveys: with the 8-class model and the
-#: recon of its time a third (dev draws, seed 5: 98 of 275 detections clutter; seed 21: 16 of 89); with the
-#: textured seabed, the measured threshold and the span rule of recon.highlight, 12 of 273 first emissions
-#: (seed 4242, 40 surveys: 4 %). 0.1 (rounded up: rough seabeds hold them all); a third called 1.7 % of the
-#: synthesized objects clutter, and more of recon's real low objects (hemispheres, half pipes)
+#: threshold's choice (:func:`calibrate_clutter`): 12 of 273 first emissions (4 %) on 40 random surveys (draw seed
+#: 4242), rounded up to 0.1 because rough seabeds hold nearly all of them
 CLUTTER_SHARE = 0.1
 
 

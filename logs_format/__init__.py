@@ -3,12 +3,14 @@
 * :class:`MissionLogWriter` - a raw-frame listener for drivers; one channel per device.
 * :class:`MissionLogReader` - streaming time-ordered merge of channels, robust to truncation and damage;
   :class:`LossReport` says what was lost.
-* :class:`Replay`, :func:`replay_samples` - raw frames back through the live framers and codecs.
+* :func:`read_messages` - the messages of a log in log-time order, without a reader object.
+* :class:`Replay`, :func:`replay_samples`, :func:`replay_frames` - raw frames back through the live framers and
+  codecs; :func:`paced` - at a given multiple of real time.
 * :class:`DecoderFactory` - for ``mcap``'s ``make_reader(f, decoder_factories=[DecoderFactory()])``:
   ``iter_decoded_messages`` yields auvlink records for every raw channel.
 * :func:`log_info`, :func:`export_log`, :func:`import_can_log`, :func:`import_serial_capture`.
 
-The container and naming rules are in :mod:`logs_format.profile`.
+The container and naming rules are in :mod:`logs_format.profile`; errors are :class:`LogError`.
 """
 
 from logs_format.chunks import ChannelInfo, LogMessage

@@ -1,4 +1,4 @@
-"""Random surveys drawn from the condition space the pipeline must work in (issue 16).
+"""Random surveys drawn from the condition space the pipeline must work in.
 
 The space (every value uniform in its range unless said otherwise):
 

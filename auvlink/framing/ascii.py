@@ -6,9 +6,6 @@ dropped and counted, and a line with no frame in it is dropped whole. A run of b
 terminator longer than ``max_line`` is cut, and a frame longer than ``max_line`` is dropped. At
 end of stream an unterminated tail that may be the beginning of a frame counts as truncated; other
 tails are dropped.
-
-(A small local base: the generic ``auvlink.framing.ascii_lines.LineFramer`` did not exist yet
-when these were written; these classes can move onto it without changing behaviour.)
 """
 
 from __future__ import annotations
