@@ -20,7 +20,6 @@ log that recorded garbage (a live log keeps every frame, decodable or not) reads
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -30,12 +29,13 @@ from mcap.records import Schema
 
 from auvlink import formats
 from auvlink.errors import DecodeError, UnknownFormatError
+from logs_format.bounded_json import loads_bounded
 from logs_format.profile import JSON_MESSAGE_ENCODING
 from logs_format.specs import parse_descriptor
 
 
 def _json(data: bytes) -> Any:
-    return json.loads(data)
+    return loads_bounded(data)  # a ValueError over the size or depth limit (logs_format.bounded_json)
 
 
 @dataclass(frozen=True)

@@ -117,6 +117,7 @@ def log_info(
             "chunk_count": len(log.chunks),
             "channels": channels,
             "metadata": log.metadata(decode_json=True),
+            "metadata_problems": list(log.metadata_problems),  # values refused (JSON over the size or depth limit)
             "attachments": [{"name": a.name, "media_type": a.media_type, "size": a.size}
                             for a in log.attachments()],
             "loss": log.loss.to_json(),
@@ -142,6 +143,8 @@ def format_info(info: dict[str, Any]) -> str:
     for name, meta in info["metadata"].items():
         keys = ", ".join(sorted(meta))
         lines.append(f"  metadata {name}: {keys}")
+    for problem in info.get("metadata_problems", []):
+        lines.append(f"  warning: {problem}")
     for att in info["attachments"]:
         lines.append(f"  attachment {att['name']} ({att['media_type']}, {att['size']} bytes)")
     return "\n".join(lines)

@@ -28,6 +28,7 @@ from typing import Any
 from mcap.writer import CompressionType
 
 from auvlink.errors import AuvlinkError
+from logs_format.bounded_json import JsonLimitError, loads_bounded
 
 #: MCAP header ``profile`` field of auvlink logs
 PROFILE = "auvlink"
@@ -82,12 +83,19 @@ def metadata_strings(data: Mapping[str, Any]) -> dict[str, str]:
     return out
 
 
-def metadata_values(data: Mapping[str, str]) -> dict[str, Any]:
-    """Inverse of :func:`metadata_strings` where a value parses as JSON (else the string)."""
+def metadata_values(data: Mapping[str, str], problems: list[str] | None = None, name: str = "") -> dict[str, Any]:
+    """Inverse of :func:`metadata_strings` where a value parses as JSON (else the string).
+
+    A value over the JSON limits of :mod:`logs_format.bounded_json` (size, nesting depth) becomes None,
+    and one line naming ``name.key`` and the limit goes to ``problems`` (when given)."""
     out: dict[str, Any] = {}
     for key, value in data.items():
         try:
-            out[key] = json.loads(value)
+            out[key] = loads_bounded(value)
+        except JsonLimitError as exc:
+            out[key] = None
+            if problems is not None:
+                problems.append(f"metadata {name + '.' if name else ''}{key}: {exc}; ignored")
         except ValueError:
             out[key] = value
     return out

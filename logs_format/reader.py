@@ -59,6 +59,8 @@ class MissionLogReader:
             self._add_channel(ch)
         self._bad: set[int] = set()  # offsets of chunks found damaged (each reported once)
         self._orphans: set[tuple[int, int, int]] = set()  # (chunk offset, log time, sequence)
+        #: metadata values refused by the last ``metadata(decode_json=True)`` (one line each: key and limit)
+        self.metadata_problems: list[str] = []
 
     # -- life cycle -----------------------------------------------------------------------
     def close(self) -> None:
@@ -113,10 +115,14 @@ class MissionLogReader:
         return self.channels
 
     def metadata(self, decode_json: bool = False) -> dict[str, dict[str, Any]]:
-        """Metadata records by name (a later record of the same name wins)."""
+        """Metadata records by name (a later record of the same name wins). With ``decode_json`` a value over the
+        JSON limits (:mod:`logs_format.bounded_json`) is None and :attr:`metadata_problems` says why, one line each."""
         out: dict[str, dict[str, Any]] = {}
+        problems: list[str] = []
         for name, data in self.index.metadata:
-            out[name] = metadata_values(data) if decode_json else dict(data)
+            out[name] = metadata_values(data, problems, name) if decode_json else dict(data)
+        if decode_json:
+            self.metadata_problems = problems
         return out
 
     def attachments(self) -> list[AttachmentRef]:

@@ -32,6 +32,7 @@ from typing import Any
 
 from auvlink import formats
 from auvlink.errors import UnknownFormatError
+from logs_format.bounded_json import loads_bounded
 
 #: prefix of the schema names of raw channels
 SCHEMA_PREFIX = "auvlink."
@@ -129,7 +130,7 @@ def parse_descriptor(data: bytes) -> dict[str, Any] | None:
     if not data:
         return None
     try:
-        out = json.loads(bytes(data).decode("utf-8"))
+        out = loads_bounded(bytes(data).decode("utf-8"))
     except (UnicodeDecodeError, ValueError):
         return None
     return out if isinstance(out, dict) and "format" in out else None

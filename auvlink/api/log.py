@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -11,6 +10,7 @@ from typing import Any
 
 from auvlink.errors import AuvlinkError
 from logs_format import ChannelInfo, LossReport, MissionLogReader, Replay
+from logs_format.bounded_json import loads_bounded
 
 
 @dataclass(frozen=True)
@@ -48,8 +48,15 @@ class MissionLog:
 
     @property
     def metadata(self) -> dict[str, dict[str, Any]]:
-        """The log's metadata records by name, JSON values decoded (vehicle config, truth, ...)."""
+        """The log's metadata records by name, JSON values decoded (vehicle config, truth, ...); a value over
+        the JSON limits of :mod:`logs_format.bounded_json` is None (:attr:`metadata_problems` says why)."""
         return self._reader.metadata(decode_json=True)
+
+    @property
+    def metadata_problems(self) -> list[str]:
+        """One line per metadata value refused (JSON too large or too deeply nested), key and limit."""
+        self._reader.metadata(decode_json=True)
+        return list(self._reader.metadata_problems)
 
     @property
     def loss(self) -> LossReport:
@@ -78,8 +85,8 @@ class MissionLog:
             if msg.format is None:
                 if info is not None and info.message_encoding == "json":
                     try:
-                        value = json.loads(msg.data)
-                    except ValueError:  # a damaged message: skipped, as an undecodable frame is
+                        value = loads_bounded(msg.data)
+                    except ValueError:  # damaged or over the JSON limits: skipped, as an undecodable frame is
                         continue
                     yield LogRecord(msg.channel, info.device, None, msg.log_time_ns, value)
                 continue

@@ -3,9 +3,13 @@ reconstruction settings the pipeline runs with (:func:`default_recon_config`).""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import asdict
+from typing import Annotated, Any
 
+from pydantic import Field
+from pydantic.dataclasses import dataclass
+
+from auvlink.validation import CONFIG, Integer, Number, validate
 from recon.cluster import ClusterConfig
 from recon.highlight import HighlightConfig
 from recon.pipeline import ReconConfig
@@ -24,20 +28,32 @@ def default_recon_config() -> ReconConfig:
                        cluster=ClusterConfig(eps=0.5))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=CONFIG)
 class EngineConfig:
-    """Settings that decide the results (stored in a live log, so its replay matches)."""
+    """Settings that decide the results (stored in a live log, so its replay matches; validated like the
+    vehicle configuration, so a stored value out of range is refused by key)."""
 
-    frame_block: int = 1  # sonar frames per reconstruction call (live: 1 for latency)
-    poll_s: float = 1.0  # mission seconds between streaming-clustering polls
-    max_extrapolation_s: float = 1.0  # a frame this far past the last navigation sample is skipped
-    max_pitch_deg: float = 15.0  # frames while the vehicle pitches more (diving, climbing) are skipped
-    max_turn_rate_deg_s: float = 6.0  # frames while the vehicle turns faster (line ends) are skipped
+    #: sonar frames per reconstruction call (live: 1 for latency); 4096 DIDSON frames (96 x 512 bytes each)
+    #: are 200 MB held at once
+    frame_block: Annotated[Integer, Field(ge=1, le=4096)] = 1
+    #: mission seconds between streaming-clustering polls (at most one poll per reconstruction call); an hour
+    #: between polls is already a mission's whole length
+    poll_s: Annotated[Number, Field(gt=0.0, le=3600.0)] = 1.0
+    #: a frame this far (s) past the last navigation sample is skipped; a minute of dead reckoning past the
+    #: last sample is far beyond what the navigation can extrapolate
+    max_extrapolation_s: Annotated[Number, Field(ge=0.0, le=60.0)] = 1.0
+    #: frames while the vehicle pitches more (diving, climbing) are skipped; pitch is in [-90, 90] deg, and a
+    #: limit <= 0 would skip every frame
+    max_pitch_deg: Annotated[Number, Field(gt=0.0, le=90.0)] = 15.0
+    #: frames while the vehicle turns faster (line ends) are skipped; a limit <= 0 would skip every frame, a
+    #: very large one (1e9) switches the gate off
+    max_turn_rate_deg_s: Annotated[Number, Field(gt=0.0)] = 6.0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> EngineConfig:
+        """The settings of ``d`` (unknown keys ignored); :class:`~auvlink.errors.ConfigError` naming a bad key."""
         names = set(cls.__dataclass_fields__)
-        return cls(**{k: v for k, v in d.items() if k in names})
+        return validate(cls, {k: v for k, v in d.items() if k in names})

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import csv
 import datetime as dt
-import json
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from auvlink.jsonutil import dumps
 from auvlink.pipeline.results import MissionResult
 
 TRACK_COLUMNS = ("time", "lat", "lon", "north", "east", "depth", "altitude", "heading", "correction_north",
@@ -104,11 +104,11 @@ def write_gis(result: MissionResult, write: Callable[[str, Callable[[Path], Any]
         written.append("track.csv")
     if not result.georef.get("georeferenced"):
         return written
-    dets = json.dumps(detections_geojson(result), indent=1) + "\n"
+    dets = dumps(detections_geojson(result), indent=1) + "\n"  # strict JSON: a non-finite value is null
     write("detections.geojson", lambda p: p.write_text(dets))
     written.append("detections.geojson")
     if track.get("time") is not None and len(track["time"]):
-        line = json.dumps(track_geojson(track)) + "\n"
+        line = dumps(track_geojson(track)) + "\n"
         write("track.geojson", lambda p: p.write_text(line))
         write("detections.kml", lambda p: write_kml(result, track, p))
         written += ["track.geojson", "detections.kml"]

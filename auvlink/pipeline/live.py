@@ -32,10 +32,11 @@ from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.fan_frames import FanRecorder
+from auvlink.pipeline.log_meta import LIVE_META
 from auvlink.pipeline.nav_inputs import SONAR_FORMATS
 from auvlink.pipeline.outputs import DetectionStream, check_ply_frame, write_outputs
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
-from auvlink.pipeline.process import LIVE_META, result_of
+from auvlink.pipeline.process import result_of
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.records import Sample

@@ -18,7 +18,6 @@ georeferenced, with the drift correction; else relative to the first navigation 
 from __future__ import annotations
 
 import csv
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,9 +28,8 @@ from auvlink.config import VehicleConfig
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.nav_inputs import NAV_FORMATS, SONAR_FORMATS
-from auvlink.pipeline.process import ADVANCE_NS, FRAME_BLOCK, dropped_live, live_settings
+from auvlink.pipeline.process import ADVANCE_NS, FRAME_BLOCK, dropped_live, print_warnings, read_setup
 from auvlink.pipeline.results import Poses
-from auvlink.pipeline.setup import MissionSetup
 from logs_format import MissionLogReader, Replay
 from recon.frames import euler
 
@@ -56,16 +54,13 @@ class Navigation:
 def navigation_solution(log: Path, *, rate_hz: float = 10.0, config: VehicleConfig | None = None) -> Navigation:
     """The replay's navigation of ``log`` (see the module docstring)."""
     with MissionLogReader(log) as reader:
-        meta = reader.metadata(decode_json=True)
+        setup, live_cfg, t0_ns, warnings = read_setup(reader, config)
         dropped = dropped_live(reader)
         sonar = [c.topic for c in reader.discover_channels().values() if c.format in SONAR_FORMATS]
         nav = [c.topic for c in reader.channels.values() if c.format in NAV_FORMATS]
         first_sonar = next((m.log_time_ns for m in reader.messages(channels=sonar)), None) if sonar else None
-    setup = MissionSetup.from_metadata(meta, config)
-    if setup.warning:
-        print(f"auvlink: warning: {log}: {setup.warning}", file=sys.stderr)
-    live_cfg, t0_ns = live_settings(meta)
-    cfg = EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK)
+    print_warnings(log, warnings)
+    cfg = live_cfg or EngineConfig(frame_block=FRAME_BLOCK)
     engine = Engine(setup, cfg, t0_ns=t0_ns, classify=False)
     index: dict[str, int] = {}
     last_adv: int | None = None

@@ -10,7 +10,6 @@ report need. The non-causal batch reference for tests is :func:`auvlink.evaluati
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 from collections.abc import Callable
@@ -20,25 +19,36 @@ from typing import Any
 from auvlink.config import VehicleConfig
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.fan_frames import FanRecorder
+from auvlink.pipeline.log_meta import live_settings
 from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
 from auvlink.pipeline.results import Detection, FanFrame, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.progress import progress_bar
 from logs_format import MissionLogReader, Replay
+from logs_format.bounded_json import loads_bounded
 from recon.pipeline import ReconConfig
 
 FRAME_BLOCK = 64  # frames per reconstruction call when replaying a log not recorded live
 
 
-def live_settings(meta: dict[str, dict[str, Any]]) -> tuple[dict[str, Any], int | None]:
-    """The engine settings and time origin a live run stored in its log (empty, None otherwise)."""
-    rec = meta.get(LIVE_META) or {}
-    engine = rec.get("engine") if isinstance(rec.get("engine"), dict) else {}
-    t0 = rec.get("t0_ns")
-    return dict(engine or {}), (int(t0) if t0 is not None else None)
+def read_setup(reader: MissionLogReader, config: VehicleConfig | None = None
+               ) -> tuple[MissionSetup, EngineConfig | None, int | None, list[str]]:
+    """From a log's metadata (:mod:`auvlink.pipeline.log_meta`): the mission set-up (``config`` replacing the
+    stored vehicle configuration), the engine settings and time origin a live run stored (None, None
+    otherwise) and one warning line per value refused or replaced by its default."""
+    meta = reader.metadata(decode_json=True)
+    setup = MissionSetup.from_metadata(meta, config)
+    engine, t0_ns, warnings = live_settings(meta, reader.start_ns, reader.end_ns)
+    if setup.truth_skipped:
+        warnings.insert(0, f"{setup.truth_skipped} ground-truth entries left out as unusable "
+                           f"(the first: {setup.truth_problem})")
+    return setup, engine, t0_ns, [*reader.metadata_problems, *filter(None, [setup.warning]), *warnings]
 
 
-LIVE_META = "live_pipeline"
+def print_warnings(log: Path, warnings: list[str]) -> None:
+    """Each warning as one line on stderr, naming the log."""
+    for line in warnings:
+        print(f"auvlink: warning: {log}: {line}", file=sys.stderr)
 
 
 def run_log(log: Path, *, speed: float | None = None, model: Path | None = None, classify: bool = True,
@@ -57,15 +67,12 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     """
     t_start = time.perf_counter()
     with MissionLogReader(log) as reader:
-        meta = reader.metadata(decode_json=True)
+        setup, live_cfg, t0_ns, warnings = read_setup(reader, config)
         duration = reader.duration_s
         log_start = reader.start_ns
         dropped = dropped_live(reader)
-    setup = MissionSetup.from_metadata(meta, config)
-    if setup.warning:
-        print(f"auvlink: warning: {log}: {setup.warning}", file=sys.stderr)
-    live_cfg, t0_ns = live_settings(meta)
-    cfg = engine_config or (EngineConfig.from_dict(live_cfg) if live_cfg else EngineConfig(frame_block=FRAME_BLOCK))
+    print_warnings(log, warnings)
+    cfg = engine_config or live_cfg or EngineConfig(frame_block=FRAME_BLOCK)
     fans = FanRecorder()
     engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config, classify=classify, model=model,
                     on_detection=on_detection, on_frames=fans, clutter_threshold=clutter_threshold)
@@ -124,15 +131,16 @@ def dropped_live(reader: MissionLogReader) -> set[tuple[str, int] | tuple[str, i
     out: set[tuple[str, int] | tuple[str, int, int]] = set()
     for msg in reader.messages(channels=["events"]):
         try:
-            ev = json.loads(msg.data)
+            ev = loads_bounded(msg.data)
         except ValueError:
             continue
-        if ev.get("kind") != "frame_dropped":
+        if not isinstance(ev, dict) or ev.get("kind") != "frame_dropped":
             continue
-        if "sample_index" in ev:
-            out.add((str(ev["device"]), int(ev["sample_index"])))
-        elif "frame_t_ns" in ev:
-            out.add((str(ev["device"]), -1, int(ev["frame_t_ns"])))
+        index, t_ns = ev.get("sample_index"), ev.get("frame_t_ns")
+        if isinstance(index, int):
+            out.add((str(ev.get("device")), index))
+        elif isinstance(t_ns, int):
+            out.add((str(ev.get("device")), -1, t_ns))
     return out
 
 

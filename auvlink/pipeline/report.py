@@ -134,6 +134,7 @@ def render_report(result: MissionResult, summary: dict[str, Any], *, figures: bo
         if figures else None,
         "detections": _detection_rows(result, matched),
         "has_truth": bool(truth), "has_latlon": any(d.latitude is not None for d in result.detections),
+        "truth_skipped": result.setup.truth_skipped, "truth_problem": result.setup.truth_problem,
         "scores": _scalars(scores) if isinstance(scores, dict) else None,
         "false_detections": [r for r in _detection_rows(result, matched) if r["truth"] == "false detection"],
         "missed": _missed(result, matched),

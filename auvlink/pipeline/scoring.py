@@ -24,7 +24,7 @@ def match(det_xy: np.ndarray, truth_xy: np.ndarray, radius: float) -> list[tuple
     used_t: set[int] = set()
     for flat in np.argsort(d, axis=None):
         i, j = divmod(int(flat), d.shape[1])
-        if d[i, j] > radius:
+        if not d[i, j] <= radius:  # (a non-finite distance, sorted last, matches nothing)
             break
         if i in used_d or j in used_t:
             continue
@@ -52,9 +52,10 @@ def truth_in_result_frame(result: MissionResult) -> np.ndarray:
 
 
 def score_detections(result: MissionResult, radius: float = 1.0) -> dict[str, Any] | None:
-    """Scores against the truth, or None when the log has no ground truth."""
+    """Scores against the truth, or None when the log has no ground truth; ``truth_skipped`` counts the
+    entries of the log's truth left out as unusable (:func:`auvlink.pipeline.log_meta.truth_objects`)."""
     truth = result.setup.truth
-    if not truth:
+    if not truth and not result.setup.truth_skipped:
         return None
     dets = result.detections
     det_xy = np.array([d.position_ned[:2] for d in dets]).reshape(-1, 2)
@@ -70,6 +71,7 @@ def score_detections(result: MissionResult, radius: float = 1.0) -> dict[str, An
         "radius_m": radius,
         "detections": n_det,
         "truth_objects": n_truth,
+        "truth_skipped": result.setup.truth_skipped,
         "matched": len(pairs),
         "detection_precision": len(pairs) / n_det if n_det else 0.0,
         "detection_recall": len(pairs) / n_truth if n_truth else 0.0,

@@ -10,30 +10,19 @@ says in one line which key was bad.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from auvlink.config import VehicleConfig, config_from_metadata
 from auvlink.errors import ConfigError
+from auvlink.pipeline.log_meta import TruthObject, truth_objects
 from auvlink.sonar import DEFAULT_SONAR, Mounting, Sonar
 from auvlink.validation import Site
 from recon.frames import rdi_instrument_mounting
 from recon.nav import NavConfig
 from recon.sonar_geometry import SonarGeometry
-
-
-@dataclass(frozen=True)
-class TruthObject:
-    """One object of a simulated mission's ground truth (world frame NED, m)."""
-
-    class_name: str
-    position_ned: tuple[float, float, float]
-    heading_deg: float = 0.0
-    latitude: float | None = None  # WGS84 deg (the simulator's truth carries them with its datum)
-    longitude: float | None = None
 
 
 @dataclass(frozen=True)
@@ -48,6 +37,8 @@ class MissionSetup:
     gnss_mounting: Mounting | None = None  # the GNSS antenna (``nmea`` device); None: no GNSS receiver
     truth: tuple[TruthObject, ...] = ()
     warning: str = ""  # why the log's stored vehicle configuration was not used ("" when it was)
+    truth_skipped: int = 0  # ground-truth entries left out as unusable (NaN, out of range, wrong type)
+    truth_problem: str = ""  # why the first of them was
 
     # the sonar's numbers under the names the pipeline used before they moved into ``sonar``
     @property
@@ -89,38 +80,20 @@ class MissionSetup:
     def from_metadata(cls, meta: Mapping[str, object], config: VehicleConfig | None = None) -> MissionSetup:
         """The setup of a mission log: ``config`` when given, else the log's stored configuration.
 
-        A stored configuration that fails validation gives the defaults and a one-line :attr:`warning`.
+        A stored configuration that fails validation gives the defaults and a one-line :attr:`warning`; the
+        ground truth is read entry by entry (:func:`~auvlink.pipeline.log_meta.truth_objects`), unusable
+        entries counted in :attr:`truth_skipped`.
         """
-        truth = tuple(_truth_objects(meta.get("ground_truth")))
-        if config is not None:
-            return cls.from_config(config, truth)
-        if meta.get("vehicle_config") is None:
-            return cls(truth=truth)
+        gt = truth_objects(meta.get("ground_truth"))
         try:
-            return cls.from_config(config_from_metadata(meta), truth)
+            if config is None and meta.get("vehicle_config") is not None:
+                config = config_from_metadata(meta)
+            warning = ""
         except ConfigError as exc:
-            return cls(truth=truth, warning=f"the log's vehicle configuration is not valid: {exc}; "
-                                            "using the default sonar and mountings (give --config CONFIG.toml)")
-
-
-def _truth_objects(gt: object) -> list[TruthObject]:
-    out: list[TruthObject] = []
-    objects = gt.get("objects", []) if isinstance(gt, Mapping) else []
-    for obj in objects if isinstance(objects, list) else []:
-        if not isinstance(obj, Mapping):
-            continue
-        name = obj.get("class") or obj.get("class_name")
-        pos = obj.get("position_ned") or obj.get("position")
-        if name is None or not isinstance(pos, list | tuple):
-            continue
-        try:
-            p = [float(v) for v in pos] + [math.nan] * (3 - len(pos))
-            lat, lon = obj.get("latitude"), obj.get("longitude")
-            out.append(TruthObject(str(name), (p[0], p[1], p[2]), float(obj.get("heading_deg", 0.0)),
-                                   None if lat is None else float(lat), None if lon is None else float(lon)))
-        except (TypeError, ValueError):
-            continue
-    return out
+            warning = (f"the log's vehicle configuration is not valid: {exc}; "
+                       "using the default sonar and mountings (give --config CONFIG.toml)")
+        setup = cls.from_config(config, gt.objects) if config is not None else cls(truth=gt.objects)
+        return replace(setup, warning=warning, truth_skipped=gt.skipped, truth_problem=gt.problem)
 
 
 def sonar_geometry(setup: MissionSetup, azimuths: np.ndarray | None = None,
