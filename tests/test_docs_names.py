@@ -135,6 +135,7 @@ def resolve(name: str) -> str | None:
     return "; ".join(reasons)
 
 
+@pytest.mark.slow  # imports every module the docs name: PyTorch, Open3D, the pipeline (about 7 s of CPU here)
 def test_the_docs_name_things_that_exist() -> None:
     names = [n for path in DOCS for n in doc_names(path.read_text(encoding="utf-8"), str(path.relative_to(ROOT)))]
     assert len({n.name for n in names if n.file == "docs/ARCHITECTURE.md"}) > 60  # the check reads the doc
@@ -160,3 +161,28 @@ def test_file_names_code_blocks_and_other_libraries_are_not_names() -> None:
     text = ("`summary.json`, `docs/ARCHITECTURE.md`, `os.cpu_count`, `LOG.mcap.partial`, `auvlink/formats.py`\n"
             "```\nrecon.gone.Module\n```\n`auvlink.Event`, `Classifier.decide`\n")
     assert [(n.name, n.line) for n in doc_names(text, "x.md")] == [("Classifier.decide", 5)]
+
+
+def heading_anchors(text: str) -> set[str]:
+    """GitHub's anchors of a Markdown file's headings (lower case, punctuation dropped, spaces to hyphens)."""
+    return {re.sub(r"[^\w\- ]", "", m.group(1).strip().lower()).replace(" ", "-")
+            for m in re.finditer(r"^#+ (.+)$", FENCE.sub("", text), re.M)}
+
+
+def test_links_stay_inside_the_repository_and_find_their_target() -> None:
+    problems = []
+    for path in [*DOCS, ROOT / "CHANGELOG.md", ROOT / "benchmarks" / "RESULTS.md"]:
+        for m in re.finditer(r"\]\(([^)\s]+)\)", FENCE.sub("", path.read_text(encoding="utf-8"))):
+            link = m.group(1)
+            if re.match(r"[a-z]+://", link):
+                continue
+            file, _, anchor = link.partition("#")
+            target = (path.parent / file).resolve() if file else path
+            where = f"{path.relative_to(ROOT)}: ({link})"
+            if not target.is_relative_to(ROOT):
+                problems.append(f"{where} points outside the repository")
+            elif not target.exists():
+                problems.append(f"{where}: no such file")
+            elif anchor and target.suffix == ".md" and anchor not in heading_anchors(target.read_text("utf-8")):
+                problems.append(f"{where}: no heading with that anchor")
+    assert not problems, "\n".join(problems)
