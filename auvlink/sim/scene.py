@@ -18,6 +18,8 @@ Optional keys beyond the architecture's table (all with defaults):
   ``pitch_period_s`` (11.0), ``yaw_period_s`` (17.0): the small seeded attitude oscillations.
 - ``[sensors]`` and ``[noise]``: the simulator settings (:mod:`auvlink.sim.settings` validates them).
 - ``[gnss]``: the GNSS receiver and the surface phases of the mission (:mod:`auvlink.sim.gnss_config`).
+- ``[acoustics]``: the acoustic model of the sonar image, ``profile`` and overrides
+  (:mod:`auvlink.sim.acoustics`); absent: the ``ideal`` profile.
 
 Without ``[site]`` (or with only one of its keys) the scene's datum (:attr:`Scene.datum`) is Jangil Bay,
 Pohang (36.0412 N, 129.3915 E), where the paper's field trial ran.
@@ -36,6 +38,7 @@ from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
 from auvlink.geodesy import JANGIL_BAY, Datum
+from auvlink.sim.acoustics import AcousticsTable, resolve
 from auvlink.sim.gnss_config import Gnss, check_gnss
 from auvlink.sonar import MAX_LEVER_M, Sonar
 from auvlink.validation import CONFIG, Integer, Number, Site, Vec2, Vec3, loads_toml, read_toml, validate
@@ -146,6 +149,7 @@ class SceneFile:
     sensors: dict[str, Any] | None = None
     noise: dict[str, Any] | bool | None = None
     gnss: Gnss | None = None
+    acoustics: AcousticsTable | None = None
 
 
 @dataclass(frozen=True)
@@ -159,6 +163,7 @@ class Scene:
     source: str = ""  # file the scene came from ("" when built in code)
     site: Site | None = None
     gnss: Gnss | None = None  # None: no GNSS receiver, the mission is the survey alone
+    acoustics: AcousticsTable | None = None  # None: the ideal acoustic model (auvlink.sim.acoustics)
 
     @property
     def datum(self) -> Datum:
@@ -195,9 +200,10 @@ def parse_scene(doc: Any, source: str = "") -> Scene:
         raise ConfigError("survey", f"the mission would last {duration:.0f} s (lines x line_length / speed), "
                           f"beyond the {MAX_MISSION_S:.0f} s (12 h) limit",
                           "use fewer or shorter lines, or a higher speed")
+    resolve(f.acoustics)  # the ideal profile with overrides is an error naming the key
     return Scene(seed=f.seed, seabed=f.seabed, objects=tuple(o.scene_object() for o in f.objects),
                  survey=f.survey, sonar=f.sonar, vehicle=f.vehicle, source=source, site=f.site,
-                 gnss=check_gnss(f.gnss))
+                 gnss=check_gnss(f.gnss), acoustics=f.acoustics)
 
 
 def load_scene(path: str | Path) -> Scene:

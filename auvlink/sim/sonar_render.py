@@ -23,7 +23,7 @@ derives one per frame from the run's seed, so a frame renders the same bytes in 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -31,8 +31,10 @@ import open3d as o3d
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from auvlink.sim.acoustic_image import AcousticImager
+from auvlink.sim.acoustics import Acoustics, resolve
 from auvlink.sim.catalog import bounding_sphere, class_material, object_pose, placed_mesh
-from auvlink.sim.scene import Scene
+from auvlink.sim.scene import Scene, SonarConfig
 from auvlink.sim.seabed import SeabedSurface
 from auvlink.sim.sonar_geometry import SonarGeometry
 from auvlink.sim.speckle import AcousticModel
@@ -85,7 +87,13 @@ class SonarRenderer:
         self.scene, self.cull, self.speckle = scene, cull, speckle
         self.model = model if model is not None else AcousticModel()
         self.seabed = seabed if seabed is not None else SeabedSurface(scene.seabed, scene.seed)
-        self.geometry = SonarGeometry(scene.sonar, rays_per_beam)
+        self.acoustics = resolve(scene.acoustics)
+        self.imager: AcousticImager | None = None
+        if self.acoustics is None:
+            self.geometry = SonarGeometry(scene.sonar, rays_per_beam)
+        else:
+            self.geometry = SonarGeometry(sampled_aperture(scene.sonar, self.acoustics), rays_per_beam)
+            self.imager = AcousticImager(self.acoustics, self.geometry, scene.seed)
         n_obj = len(scene.objects)
         self.centres, self.radii = np.zeros((n_obj, 3)), np.zeros(n_obj)
         self.gain = np.zeros(n_obj)
@@ -188,8 +196,24 @@ class SonarRenderer:
         img[cells] = values
         return img.reshape(g.n_bins, g.n_beams)
 
+    def realistic(self, hits: RayHits, rng: np.random.Generator | None = None) -> U8:
+        """One frame under the scene's realistic profile (:mod:`auvlink.sim.acoustic_image`)."""
+        if self.imager is None:
+            raise ValueError("the scene's acoustic profile is ideal: use image()")
+        obj = hits.kind == OBJECT
+        surface = np.where(obj, hits.object_index, -1).astype(np.int32)
+        strength = np.append(self.gain, self.seabed_gain)[hits.object_index]  # index -1: the seabed
+        with np.errstate(invalid="ignore"):
+            cos2 = np.where(hits.kind == MISS, 0.0, hits.intensity * hits.range * hits.range / strength)
+        # objects: the seabed's mu times the ideal model's contrast (material gain over the seabed's)
+        diffuse = self.imager.mu * np.where(obj, strength / self.seabed_gain * self.imager.object_scale, 1.0)
+        energy = self.imager.expected(hits.range, cos2, diffuse, surface)
+        return self.imager.display(energy, rng if self.speckle else None)
+
     def image(self, hits: RayHits, rng: np.random.Generator | None = None) -> U8:
         """Speckle (if enabled; needs ``rng``) and quantize one frame's returns to uint8 (512, 96)."""
+        if self.imager is not None:
+            return self.realistic(hits, rng)
         g = self.geometry
         size = g.n_bins * g.n_beams
         cells, values = self.returns(hits)
@@ -214,3 +238,11 @@ class SonarRenderer:
         for i, (p, m) in enumerate(zip(np.asarray(positions, float), mats, strict=True)):
             rng = frame_rng(seed, first_frame + i) if self.speckle else None
             yield self.image(self.trace_matrix(p, m), rng)
+
+
+def sampled_aperture(sonar: SonarConfig, acoustics: Acoustics) -> SonarConfig:
+    """The scene's sonar with the realistic profile's sampled elevations: ``elevation_samples`` over
+    ``vertical_extent`` times the vertical width, kept below the vertical and within 60 deg."""
+    extent = acoustics.vertical_extent * acoustics.vertical_width_deg
+    extent = min(extent, 60.0, 2.0 * (89.0 - sonar.tilt_deg))
+    return replace(sonar, spread_deg=extent, rays_per_beam=acoustics.elevation_samples)

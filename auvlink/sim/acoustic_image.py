@@ -1,0 +1,219 @@
+"""Realistic image formation of the simulated sonar: the profiles of :mod:`auvlink.sim.acoustics`.
+
+Input: the nearest hit of every elevation sample of every beam (``K`` samples spread evenly over
+``vertical_extent`` times the vertical -3 dB width, :class:`~auvlink.sim.sonar_render.RayHits`).
+Output: the uint8 image ``[range bin, beam]``. Steps, all vectorized over the frame:
+
+1. Energy of each sample, after an exact time-varied gain (spherical spreading, absorption and the
+   area of a range bin compensated)::
+
+       e = sigma(alpha) * B(phi) dphi * r / (cos(alpha) * dr) * 10^(tvg_error (r - r_mid) / 10)
+
+   ``sigma`` the backscatter per unit area at incidence ``alpha`` (seabed: Lambert
+   ``mu cos^2 alpha``; objects: the material's diffuse ``cos^2 alpha`` plus a specular lobe),
+   ``B`` the two-way vertical pattern, ``dr`` the bin width. A level Lambert seabed fully in the
+   beam reads ``mu sin^2(g) / cos(g)`` at grazing angle ``g``.
+2. Continuous in elevation: two neighbouring samples of a beam on the same surface (the seabed, or
+   one object with less than :data:`OBJECT_GAP_M` between them) spread their mean energy
+   uniformly over the ranges between them (the integral of the vertical aperture, piecewise linear
+   in range), so a level seabed is one continuous band at any ``K``; a sample without such a
+   neighbour keeps its share in its own bin (an edge).
+3. Pulse: each bin's energy spreads over ``[r, r + pulse_m]`` (a rectangular pulse; the echo's
+   leading edge stays at the true range). Azimuth pattern: each beam receives its neighbours at
+   the gaussian main lobe's level and every other beam of the fan at ``sidelobe_db``.
+4. Speckle (multiplicative, unit mean: gamma intensity of ``speckle_looks`` looks, times a gamma
+   texture of shape ``texture_shape`` when > 0: K-distributed amplitude), additive noise
+   (exponential power of mean ``noise_floor_db`` at the window's middle, scaled by the TVG's
+   spreading and absorption gain along range), interference (a band of 1-7 bins across the fan at
+   ``interference_db`` in ``interference_fraction`` of the frames), the survey's gain, then the 8-bit
+   log display. Without a generator (``speckle=False``) the image is the expected level alone.
+
+Random draws come from the frame's generator (:func:`auvlink.sim.sonar_render.frame_rng`): speckle
+and noise by inverse-CDF lookup of one 16-bit integer each (tables built once), then the
+interference's decision, position, width and per-beam levels. The survey's gain offset is drawn from
+the scene's seed (stream :data:`ACOUSTIC_STREAM`).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import special
+
+from auvlink.sim.acoustics import Acoustics
+from auvlink.sim.sonar_geometry import SonarGeometry
+
+F64 = NDArray[np.float64]
+F32 = NDArray[np.float32]
+U8 = NDArray[np.uint8]
+
+#: SeedSequence stream tag of the per-survey acoustic draws (the gain offset)
+ACOUSTIC_STREAM = 0xAC0057
+#: two samples on one object further apart in range than this are two surfaces (an edge between)
+OBJECT_GAP_M = 0.15
+#: incidence cosine floor: a facet seen edge-on holds at most 20x its projected area in one sample
+MIN_COS = 0.05
+#: widest interference band, bins (a DVL ping of ~1 ms blanks a few centimetres of range)
+MAX_BAND_BINS = 7
+SINC2_HALF_POWER = 0.442946470689452  # x where (sin(pi x) / (pi x))^2 = 1/2
+
+
+def vertical_pattern(shape: str, width: float, phi: F64) -> F64:
+    """Two-way power pattern at elevations ``phi`` (rad) off the boresight, -3 dB at ``+-width/2``."""
+    u = np.asarray(phi, float) / (width / 2.0)
+    if shape == "uniform":
+        return (np.abs(u) <= 1.0).astype(float)
+    if shape == "gaussian":
+        return np.asarray(np.exp(-math.log(2.0) * u * u))
+    if shape == "sinc2":
+        return np.asarray(np.sinc(u * SINC2_HALF_POWER) ** 2)
+    raise ValueError(f"unknown vertical pattern {shape!r}")
+
+
+@lru_cache(maxsize=16)
+def speckle_table(looks: float, texture: float) -> F32:
+    """65536 quantiles of the unit-mean speckle intensity factor (gamma looks x gamma texture)."""
+    q = (np.arange(65536) + 0.5) / 65536.0
+    if texture <= 0.0:
+        return np.asarray(special.gammaincinv(looks, q) / looks, np.float32)
+    t = special.gammaincinv(texture, (np.arange(512) + 0.5) / 512.0) / texture  # texture quantiles
+    x = np.geomspace(1e-7, 1e3, 8192)
+    cdf = special.gammainc(looks, looks * x[:, None] / t[None, :]).mean(axis=1)
+    return np.asarray(np.interp(q, cdf, x), np.float32)
+
+
+#: 65536 quantiles of a unit-mean exponential (noise power)
+EXP_TABLE = np.asarray(-np.log1p(-(np.arange(65536) + 0.5) / 65536.0), np.float32)
+
+
+def spread_in_range(energy: F64, pulse_bins: float) -> F64:
+    """Beam-major (beams, bins): each bin's energy spread uniformly over the next ``pulse_bins`` bins."""
+    if pulse_bins <= 1.0:
+        return energy
+    n = energy.shape[1]
+    cum = np.zeros((energy.shape[0], n + 1))
+    np.cumsum(energy, axis=1, out=cum[:, 1:])
+    t = np.arange(1, n + 1) - pulse_bins  # bin m averages the input over [t, m + 1)
+    i = np.floor(t).astype(np.int64)
+    lo, hi = np.clip(i, 0, n), np.clip(i + 1, 0, n)
+    back = cum[:, lo] + (t - i) * (cum[:, hi] - cum[:, lo])
+    back[:, t < 0.0] = 0.0
+    return np.asarray((cum[:, 1:] - back) / pulse_bins)
+
+
+def spread_across_beams(energy: F64, width_beams: float, sidelobe_db: float) -> F64:
+    """Beam-major (beams, bins): each beam's energy received by its neighbours (gaussian main lobe,
+    -3 dB at ``width_beams / 2`` beam spacings) and by every other beam of the fan at ``sidelobe_db``."""
+    side = 10.0 ** (sidelobe_db / 10.0)
+    near = math.exp(-4.0 * math.log(2.0) / (width_beams * width_beams))  # one beam spacing off
+    local = energy.copy()
+    local[1:] += energy[:-1]
+    local[:-1] += energy[1:]
+    out = energy + near * (local - energy) + side * (energy.sum(axis=0) - local)
+    return np.asarray(out)
+
+
+def tapered_pattern(shape: str, width: float, phi: F64, extent: float) -> F64:
+    """:func:`vertical_pattern` tapered to 0 over the outer 30 % of the sampled half extent (no step
+    where the integration stops)."""
+    v = np.abs(np.asarray(phi, float)) / (extent / 2.0)
+    taper = np.cos(np.clip((v - 0.7) / 0.3, 0.0, 1.0) * (math.pi / 2.0)) ** 2
+    return vertical_pattern(shape, width, phi) * taper
+
+
+class AcousticImager:
+    """Builds a frame's image from its sample hits under one realistic :class:`Acoustics`."""
+
+    def __init__(self, params: Acoustics, geometry: SonarGeometry, seed: int) -> None:
+        self.p, self.g = params, geometry
+        g = geometry
+        width = math.radians(params.vertical_width_deg)
+        dphi = g.spread / (g.k - 1)
+        pattern = tapered_pattern(params.vertical_pattern, width, g.elevation, g.spread)
+        self.weight = np.repeat(pattern * dphi, g.n_beams)
+        self.mu = 10.0 ** (params.seabed_backscatter_db / 10.0)
+        self.object_scale = 10.0 ** (params.object_backscatter_db / 10.0)
+        self.specular = 10.0 ** (params.object_specular_db / 10.0)
+        self.spec_w = math.radians(params.specular_width_deg)
+        self.r_mid = g.window_start + g.n_bins * g.bin_width / 2.0
+        r = g.range_of_bin
+        tvg_gain_db = 30.0 * np.log10(r / self.r_mid) + 2.0 * params.absorption_db_per_m * (r - self.r_mid)
+        self.noise = 10.0 ** ((params.noise_floor_db + tvg_gain_db) / 10.0)
+        draw = np.random.default_rng(np.random.SeedSequence([seed, ACOUSTIC_STREAM]))
+        self.gain_db = params.gain_db + params.gain_jitter_db * (2.0 * draw.random() - 1.0)
+        self.table = speckle_table(params.speckle_looks, params.texture_shape)
+
+    def sample_energy(self, rng_: F64, cos2: F64, diffuse: F64, is_object: NDArray[np.bool_]) -> F64:
+        """Energy of every sample (step 1): ranges (m), cos^2 of incidence, diffuse strength (linear)."""
+        cos_a = np.sqrt(np.clip(cos2, 0.0, 1.0))
+        sigma = diffuse * cos2
+        if is_object.any():
+            alpha = np.arccos(cos_a[is_object])
+            sigma[is_object] += self.specular * diffuse[is_object] * np.exp(-math.log(2.0) * (alpha / self.spec_w) ** 2)
+        with np.errstate(invalid="ignore"):
+            e = sigma * self.weight * rng_ / (np.maximum(cos_a, MIN_COS) * self.g.bin_width)
+            if self.p.tvg_error_db_per_m:
+                e *= 10.0 ** (self.p.tvg_error_db_per_m * (rng_ - self.r_mid) / 10.0)
+        return np.where(np.isfinite(rng_), e, 0.0)
+
+    def integrate(self, rng_: F64, energy: F64, surface: NDArray[np.int32]) -> F64:
+        """Bin energies (n_beams, n_bins), beam-major, from the samples (step 2); ``surface`` -1 the
+        seabed, else the object's index."""
+        g = self.g
+        nb, nk, n = g.n_beams, g.k, g.n_bins
+        x = ((rng_ - g.window_start) / g.bin_width).reshape(nk, nb)
+        e = energy.reshape(nk, nb)
+        s = surface.reshape(nk, nb)
+        with np.errstate(invalid="ignore"):
+            span = np.abs(x[1:] - x[:-1])  # nan where a sample misses
+            joined = (s[:-1] == s[1:]) & (span > 1e-9) & ((s[:-1] < 0) | (span * g.bin_width < OBJECT_GAP_M))
+        single = np.full((nk, nb), 2.0)  # a sample's halves not in a segment stay in its own bin
+        single[1:] -= joined
+        single[:-1] -= joined
+        own = 0.5 * e * single
+        slope = np.where(joined, 0.5 * (e[:-1] + e[1:]) / np.where(joined, span, 1.0), 0.0)
+        stride = n + 1
+        base = np.arange(nb) * stride
+        # G(j) = j * S1(j) - S0(j): ramps of the segments (+slope from a, -slope from b), steps of the rest
+        c = np.clip(np.nan_to_num(np.concatenate([np.fmin(x[:-1], x[1:]), np.fmax(x[:-1], x[1:])]),
+                                  nan=0.0, posinf=n), 0.0, n)
+        w = np.concatenate([slope, -slope])
+        at = (np.floor(c).astype(np.int64) + 1 + base).ravel()
+        inside = np.isfinite(x) & (x >= 0.0) & (x < n)
+        pts = (np.floor(np.where(inside, x, 0.0)).astype(np.int64) + 1 + base).ravel()
+        size = nb * stride + 1
+        s1 = np.cumsum(np.bincount(at, weights=w.ravel(), minlength=size))
+        s0 = np.bincount(np.concatenate([at, pts]), minlength=size,
+                         weights=np.concatenate([(w * (c + base)).ravel(), -np.where(inside, own, 0.0).ravel()]))
+        total = (np.arange(size) * s1 - np.cumsum(s0))[: nb * stride].reshape(nb, stride)
+        return np.maximum(np.diff(total, axis=1), 0.0)
+
+    def expected(self, rng_: F64, cos2: F64, diffuse: F64, surface: NDArray[np.int32]) -> F64:
+        """Expected bin energy (steps 1-3) before speckle, noise and gain; beam-major (n_beams, n_bins)."""
+        e = self.sample_energy(rng_, cos2, diffuse, surface >= 0)
+        img = self.integrate(rng_, e, surface)
+        img = spread_in_range(img, self.p.pulse_m / self.g.bin_width)
+        return spread_across_beams(img, self.p.azimuth_width_beams, self.p.sidelobe_db)
+
+    def display(self, energy: F64, rng: np.random.Generator | None) -> U8:
+        """Speckle, noise, interference and gain (step 4) of beam-major energies; the 8-bit log display
+        as the image ``[range bin, beam]``."""
+        p = self.p
+        if rng is None:
+            power = energy + self.noise
+        else:
+            size = energy.size
+            raw = rng.bit_generator.random_raw((size + 1) // 2).astype("<u8", copy=False).view("<u2")
+            power = energy * np.take(self.table, raw[:size]).reshape(energy.shape)
+            power += self.noise * np.take(EXP_TABLE, raw[size:2 * size]).reshape(energy.shape)
+            hit, row, width = rng.random(), rng.integers(self.g.n_bins), rng.integers(1, MAX_BAND_BINS + 1)
+            level = 10.0 ** (p.interference_db / 10.0) * (0.5 + rng.random(self.g.n_beams))
+            if hit < p.interference_fraction:
+                power[:, row:row + width] += level[:, None]
+        scale = 10.0 * 256.0 / p.display_range_db
+        with np.errstate(divide="ignore"):
+            q = (np.log10(power) + (self.gain_db - p.display_floor_db) / 10.0) * scale
+        return np.ascontiguousarray(np.clip(np.floor(q), 0.0, 255.0).astype(np.uint8).T)

@@ -1,0 +1,226 @@
+"""The simulator's acoustic profiles: ``ideal`` unchanged, the realistic model's physics, real-frame statistics."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import ndimage, stats
+
+from auvlink.errors import ConfigError
+from auvlink.sim.acoustic_image import (
+    AcousticImager,
+    spread_across_beams,
+    spread_in_range,
+    vertical_pattern,
+)
+from auvlink.sim.acoustics import AcousticsTable, resolve
+from auvlink.sim.scene import Scene, default_scene_text, load_default_scene, loads_scene
+from auvlink.sim.sonar_render import SonarRenderer, frame_rng
+
+ARIS_SAMPLE = Path(__file__).resolve().parents[2] / "shared" / "data" / "aris" / "sample.aris"
+#: sha256 of the default scene's frames at three survey poses (frame_rng(7, 0..2)) as the ideal model
+#: rendered them before the [acoustics] table existed
+IDEAL_FRAMES_SHA256 = "60bcac8bc18afda871baa04d47f444baab4efcee0cfc9502c7f638cdfbaefcba"
+
+
+def _flat(profile: str | None, **overrides: float | str) -> Scene:
+    """The default scene without objects over a level smooth seabed, sonar at the body origin."""
+    s = load_default_scene()
+    table = None if profile is None else AcousticsTable(profile=profile, **overrides)  # type: ignore[arg-type]
+    return replace(s, objects=(), seabed=replace(s.seabed, slope_deg=0.0, roughness=0.0),
+                   sonar=replace(s.sonar, lever_arm=(0.0, 0.0, 0.0)), acoustics=table)
+
+
+def _level_pose(scene: Scene) -> np.ndarray:
+    return np.array([0.0, 0.0, scene.seabed.depth - scene.survey.altitude])
+
+
+def _survey_poses(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    from auvlink.sim.trajectory import LawnmowerTrajectory
+
+    tr = LawnmowerTrajectory.from_scene(scene)
+    pose = tr.true_pose(np.array([60.0, 87.5, 219.5]))  # seabed only, reef_a, reef_c in view
+    return pose.position, pose.rotation().as_matrix()
+
+
+def _digest(scene: Scene) -> str:
+    rd = SonarRenderer(scene)
+    pos, mats = _survey_poses(scene)
+    h = hashlib.sha256()
+    for i, (p, m) in enumerate(zip(pos, mats, strict=True)):
+        h.update(rd.image(rd.trace_matrix(p, m), frame_rng(scene.seed, i)).tobytes())
+    return h.hexdigest()
+
+
+# --- ideal: today's model, byte for byte ---------------------------------------------------------
+def test_ideal_is_todays_model() -> None:
+    scene = load_default_scene()
+    assert scene.acoustics is None
+    explicit = loads_scene(default_scene_text() + '\n[acoustics]\nprofile = "ideal"\n')
+    assert _digest(scene) == _digest(explicit) == IDEAL_FRAMES_SHA256
+
+
+# --- the table: validation -------------------------------------------------------------------
+@pytest.mark.parametrize(("table", "key"), [
+    ('profile = "didson"\nsidelobe = -20.0', "acoustics.sidelobe"),
+    ('profile = "didson"\nsidelobe_db = 3.0', "acoustics.sidelobe_db"),
+    ('profile = "oculus"', "acoustics.profile"),
+    ('profile = "aris1800"\nvertical_pattern = "cosine"', "acoustics.vertical_pattern"),
+    ('pulse_m = 0.02', "acoustics.pulse_m"),  # the ideal profile takes no overrides
+    ('profile = "didson"\nelevation_samples = 4.5', "acoustics.elevation_samples"),
+])
+def test_errors_name_the_key(table: str, key: str) -> None:
+    with pytest.raises(ConfigError) as err:
+        loads_scene(default_scene_text() + f"\n[acoustics]\n{table}\n")
+    assert err.value.key == key
+    assert key in str(err.value)
+
+
+def test_profiles_resolve_with_overrides() -> None:
+    p = resolve(AcousticsTable(profile="aris3000", sidelobe_db=-18.0))
+    assert p is not None and p.sidelobe_db == -18.0 and p.absorption_db_per_m == 2.6
+    assert resolve(None) is None and resolve(AcousticsTable()) is None
+
+
+# --- randomness ------------------------------------------------------------------------------
+def test_same_seed_same_bytes_and_seeds_differ() -> None:
+    scene = replace(load_default_scene(), acoustics=AcousticsTable(profile="didson", interference_fraction=0.5))
+    assert _digest(scene) == _digest(scene)
+    assert _digest(scene) != _digest(replace(scene, seed=scene.seed + 1))
+    gains = {SonarRenderer(replace(scene, seed=s)).imager.gain_db for s in range(5)}  # type: ignore[union-attr]
+    assert len(gains) == 5 and all(abs(g) <= 3.0 for g in gains)
+
+
+# --- continuity in elevation ------------------------------------------------------------------
+def _seabed_column(scene: Scene, k: int | None = None) -> np.ndarray:
+    rd = SonarRenderer(scene, rays_per_beam=k, speckle=False)
+    hits = rd.trace(_level_pose(scene), 0.0, 0.0, 0.0)
+    if rd.imager is None:
+        return rd.intensity(hits)[:, 48]
+    diffuse = np.full(hits.range.size, rd.imager.mu)
+    cos2 = np.where(np.isfinite(hits.range), hits.intensity * hits.range**2 / rd.seabed_gain, 0.0)
+    surface = np.full(hits.range.size, -1, np.int32)
+    return rd.imager.expected(hits.range, cos2, diffuse, surface)[48]
+
+
+@pytest.mark.parametrize("k", [16, 64])
+def test_level_seabed_is_a_continuous_band(k: int) -> None:
+    col = _seabed_column(_flat("didson"), k)
+    band = np.flatnonzero(col > col.max() * 1e-3)
+    inside = col[band[0]:band[-1] + 1]
+    assert band.size > 100 and np.all(inside > 0.0)
+    dip = inside[1:-1] / np.minimum(inside[:-2], inside[2:])
+    assert dip.min() > 0.9  # no comb: no bin darker than both its neighbours
+    ideal = _seabed_column(_flat(None))  # the ideal model's comb, which this test must see as one
+    ib = np.flatnonzero(ideal > 0)
+    assert np.any(ideal[ib[0]:ib[-1] + 1] == 0.0)
+
+
+def test_energy_beyond_the_edge_moves_the_onset_as_the_pattern_predicts() -> None:
+    """A gaussian pattern alone (no sidelobes, no pulse): the seabed level along the centre beam is
+    ``mu sin^2 g / cos g * B(g - tilt)``; its -20 dB onset is where that formula puts it."""
+    scene = _flat("didson", sidelobe_db=-80.0, azimuth_width_beams=0.2, pulse_m=0.0, vertical_extent=4.0)
+    col = _seabed_column(scene)
+    rd = SonarRenderer(scene, speckle=False)
+    g, h = rd.geometry, scene.survey.altitude
+    r = g.range_of_bin
+    graze = np.arcsin(np.clip(h / r, 0.0, 1.0))
+    taper = np.cos(np.clip((np.abs(graze - g.tilt) / (g.spread / 2) - 0.7) / 0.3, 0, 1) * math.pi / 2) ** 2
+    model = np.where(r > h, rd.imager.mu * np.sin(graze) ** 2 / np.cos(graze), 0.0)  # type: ignore[union-attr]
+    model *= vertical_pattern("gaussian", math.radians(14.0), graze - g.tilt) * taper
+    predicted = int(np.argmax(model > model.max() * 0.01))
+    measured = int(np.argmax(col > col.max() * 0.01))
+    assert abs(measured - predicted) <= 2
+    hard_edge = g.bin_of_range(np.array([h / math.sin(g.tilt + math.radians(7.0))]))[0]
+    assert hard_edge - measured > 20  # energy beyond the nominal edge: the band starts nearer
+    # the level itself, in 16-bin means (the integral is piecewise constant between elevation samples)
+    lo = predicted + 10
+    n = (480 - lo) // 16 * 16
+    assert np.allclose(col[lo:lo + n].reshape(-1, 16).mean(axis=1), model[lo:lo + n].reshape(-1, 16).mean(axis=1),
+                       rtol=0.1)
+
+
+# --- azimuth pattern and pulse ----------------------------------------------------------------
+@pytest.mark.parametrize("sidelobe_db", [-20.0, -25.0, -35.0])
+def test_sidelobes_spread_a_point_across_the_fan(sidelobe_db: float) -> None:
+    e = np.zeros((96, 512))
+    e[40, 200] = 1.0
+    out = spread_across_beams(e, 1.0, sidelobe_db)
+    level = 10.0 * np.log10(out[np.r_[0:38, 43:96], 200])
+    assert np.all(np.abs(level - sidelobe_db) <= 2.0)
+    assert out[40, 200] == 1.0 and out[41, 200] == pytest.approx(2.0 ** -4)  # -3 dB at half a beam
+    assert np.all(out[:, :200] == 0.0) and np.all(out[:, 201:] == 0.0)
+
+
+@pytest.mark.parametrize("pulse_bins", [2.0, 3.5, 6.0])
+def test_pulse_smears_a_point_over_its_length(pulse_bins: float) -> None:
+    e = np.zeros((4, 512))
+    e[1, 100] = 1.0
+    out = spread_in_range(e, pulse_bins)
+    lit = np.flatnonzero(out[1] > 1e-12)
+    assert lit[0] == 100  # the leading edge stays at the true range
+    assert lit[-1] - lit[0] + 1 == math.ceil(pulse_bins)
+    assert out[1].sum() == pytest.approx(1.0)
+    assert out[1, 100] == pytest.approx(1.0 / pulse_bins)
+
+
+# --- gain, interference -----------------------------------------------------------------------
+def _imager(**overrides: float | str) -> AcousticImager:
+    scene = _flat("didson", gain_jitter_db=0.0, **overrides)
+    rd = SonarRenderer(scene)
+    assert rd.imager is not None
+    return rd.imager
+
+
+def test_gain_offset_shifts_the_mean_by_its_db() -> None:
+    energy = np.full((96, 512), 10.0 ** (-3.5))  # -35 dB: mid-display, never clipped
+    a = _imager().display(energy, np.random.default_rng(5)).astype(float)
+    b = _imager(gain_db=6.0).display(energy, np.random.default_rng(5)).astype(float)
+    shift_db = (b.mean() - a.mean()) * 60.0 / 256.0
+    assert shift_db == pytest.approx(6.0, abs=0.1)
+
+
+def test_interference_in_its_fraction_of_frames() -> None:
+    im = _imager(interference_fraction=0.2, interference_db=-10.0)
+    energy = np.full((96, 512), 1e-6)
+    n = 400
+    hit = sum(int((np.median(im.display(energy, frame_rng(9, i)), axis=1) > 180).any()) for i in range(n))
+    assert abs(hit / n - 0.2) < 3.0 * math.sqrt(0.2 * 0.8 / n)
+    none = _imager(interference_fraction=0.0, interference_db=-10.0)
+    assert not any((np.median(none.display(energy, frame_rng(9, i)), axis=1) > 180).any() for i in range(50))
+
+
+# --- statistics against real ARIS frames ------------------------------------------------------
+def frame_statistics(img: np.ndarray) -> dict[str, float]:
+    """Speckle and range statistics of an 8-bit seabed image ``[range, beam]``: local grey-level std
+    (median over 51 x 5 windows), skewness of the locally normalized grey levels, p95 - p5 of the
+    grey levels, fraction of zeros."""
+    x = img.astype(float)
+    m = ndimage.uniform_filter(x, (51, 5))
+    s = np.sqrt(np.maximum(ndimage.uniform_filter(x * x, (51, 5)) - m * m, 0.0))[30:-30, 3:-3]
+    z = ((x - m)[30:-30, 3:-3] / np.maximum(s, 1e-9)).ravel()
+    p5, p95 = np.percentile(x, [5, 95])
+    return {"local_std": float(np.median(s)), "skew": float(stats.skew(z)), "p95_p5": float(p95 - p5),
+            "zeros": float((x == 0).mean())}
+
+
+#: tolerances against the ARIS sample (docs/ACOUSTICS.md): local grey std within 25 %, the skewness
+#: negative (log-compressed speckle) and within 0.5, no zeros inside the seabed band
+@pytest.mark.skipif(not ARIS_SAMPLE.exists(), reason="../shared/data/aris/sample.aris is not here")
+@pytest.mark.parametrize("profile", ["didson", "aris1800", "aris3000"])
+def test_speckle_statistics_match_the_aris_sample(profile: str) -> None:
+    from auvlink.codecs.aris import read_file
+
+    real = [frame_statistics(f.image) for f in read_file(ARIS_SAMPLE.read_bytes()).frames]
+    ref = {k: float(np.mean([r[k] for r in real])) for k in real[0]}
+    scene = _flat(profile)
+    rd = SonarRenderer(scene)
+    sim = frame_statistics(rd.render(_level_pose(scene), 0.0, 0.0, 0.0, frame_rng(1, 0))[320:])
+    assert sim["local_std"] == pytest.approx(ref["local_std"], rel=0.25)
+    assert sim["skew"] < 0.0 and abs(sim["skew"] - ref["skew"]) < 0.5
+    assert sim["zeros"] == ref["zeros"] == 0.0
