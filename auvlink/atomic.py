@@ -6,8 +6,11 @@ Every command that writes follows the same rules (``auvlink sim/record/live/repl
 * **Checked first.** :func:`check_output_file` / :func:`check_output_dir` run before any work: an
   existing file (or a non-empty folder) is refused unless ``force``; an output that *is* one of the
   inputs (same file, also through a symlink or another relative path) is refused even with
-  ``force``; a path under a regular file, or in a folder that cannot be written, is refused with the
-  reason. Each refusal is one :class:`~auvlink.errors.OutputError` (one line, exit 1).
+  ``force`` (also its ``.partial``; :class:`~auvlink.errors.InputOverwriteError`, exit 2; for the names
+  a command writes inside its output folder see :mod:`auvlink.pipeline.run_guard`); a path under a regular file,
+  or in a folder that cannot be written, is refused with the reason. Each refusal is one
+  :class:`~auvlink.errors.OutputError` (one line, exit 1). An output folder's lock file
+  (:data:`LOCK_NAME`, :func:`auvlink.pipeline.run_guard.output_dir_lock`) does not count as content.
 * **Written under a temporary name, renamed when complete.** :func:`atomic_path` yields a hidden
   temporary name in the target's folder (same file system, so :func:`os.replace` is atomic) and
   renames it over the target only when the block ends normally; on an exception the temporary file
@@ -36,9 +39,10 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
 
-from auvlink.errors import OutputError
+from auvlink.errors import InputOverwriteError, OutputError
 
 PARTIAL_SUFFIX = ".partial"
+LOCK_NAME = ".auvlink.lock"  # the lock file a run holds in its output folder (auvlink.pipeline.run_guard)
 
 PathLike = str | os.PathLike[str]
 
@@ -86,8 +90,9 @@ def check_output_file(path: PathLike, *, force: bool, inputs: Iterable[PathLike 
     ``what`` names the output in the messages ("log", "checkpoint", ...)."""
     p = Path(path)
     for src in inputs:
-        if src is not None and same_file(p, src):
-            raise OutputError(f"{option} {p} is the input {src}; write the {what} to another file")
+        if src is not None and (same_file(p, src) or same_file(partial_path(p), src)):
+            raise InputOverwriteError(f"{option} {p} is the input {src} (or its {PARTIAL_SUFFIX}); write the "
+                                      f"{what} to another file")
     if p.is_dir():
         raise OutputError(f"{option} {p} is a folder; give the {what}'s file name")
     if os.path.lexists(p):
@@ -110,7 +115,7 @@ def check_output_dir(path: PathLike, *, force: bool, option: str = "--out") -> P
     if os.path.lexists(p) and not p.is_dir():
         raise OutputError(f"{option} {p} exists and is not a folder; give a new folder")
     if p.is_dir() and not force:
-        entries = sorted(os.listdir(p))
+        entries = sorted(set(os.listdir(p)) - {LOCK_NAME})
         if entries:
             shown = ", ".join(entries[:4]) + (", ..." if len(entries) > 4 else "")
             raise OutputError(f"{p} is not empty ({shown}); give --force to write into it (files of the "
@@ -154,6 +159,10 @@ def write_text(path: PathLike, text: str) -> Path:
     return Path(path)
 
 
+def _only_lock(folder: Path) -> bool:
+    return os.listdir(folder) == [LOCK_NAME] and os.access(folder.absolute().parent, os.W_OK)
+
+
 def _move_into(src_dir: Path, target: Path, trash: Path) -> None:
     for name in sorted(os.listdir(src_dir)):
         src, dst = src_dir / name, target / name
@@ -171,6 +180,8 @@ def atomic_dir(path: PathLike) -> Iterator[Path]:
     target = Path(path)
     exists = target.is_dir()
     base = target if exists else target.absolute().parent
+    if exists and _only_lock(target):  # a new folder its run's lock made: filled from a sibling, as a new one
+        base = target.absolute().parent
     base.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=base, prefix=f".{target.name}.", suffix=PARTIAL_SUFFIX))
     umask = os.umask(0)

@@ -38,9 +38,10 @@ def auvlink(*args: str | Path, cwd: Path = ROOT, limit: int | None = None,
                           env={**os.environ, "PYTHONUNBUFFERED": "1"})
 
 
-def one_error_line(proc: subprocess.CompletedProcess[str], *needles: str) -> str:
+def one_error_line(proc: subprocess.CompletedProcess[str], *needles: str, code: int = 1) -> str:
+    """``code``: 1, or 2 for an output that would replace an input (InputOverwriteError)."""
     err = proc.stderr.strip().splitlines()
-    assert proc.returncode == 1 and len(err) == 1, (proc.returncode, proc.stderr)
+    assert proc.returncode == code and len(err) == 1, (proc.returncode, proc.stderr)
     assert err[0].startswith("auvlink: error: ") and "Traceback" not in proc.stderr
     for needle in needles:
         assert needle in err[0], err[0]
@@ -80,7 +81,7 @@ def test_record_keeps_an_existing_log_unless_forced(tmp_path: Path, small_log: P
     out.write_bytes(small_log.read_bytes())
     one_error_line(auvlink("record", cfg, "--out", out, "--duration", "0.2"), "exists", "--force")
     assert out.read_bytes() == small_log.read_bytes()
-    one_error_line(auvlink("record", cfg, "--out", cfg, "--duration", "0.2", "--force"), "is the input")
+    one_error_line(auvlink("record", cfg, "--out", cfg, "--duration", "0.2", "--force"), "is the input", code=2)
     assert cfg.read_text() == LOOP_CONFIG
     proc = auvlink("record", cfg, "--out", out, "--duration", "0.2", "--force")
     assert proc.returncode == 0, proc.stderr
@@ -123,9 +124,9 @@ def test_log_import_refuses_its_own_input_and_an_existing_log(tmp_path: Path, sm
     for out, cwd in [(src, ROOT), (Path("m.mcap"), tmp_path), (Path("sub/../m.mcap"), tmp_path),
                      (tmp_path / "link.mcap", ROOT)]:
         one_error_line(auvlink("log", "import", src, "--format", "pd0", "--out", out, "--force", cwd=cwd),
-                       "is the input")
+                       "is the input", code=2)
     one_error_line(auvlink("log", "import", "link.mcap", "--format", "pd0", "--out", "m.mcap", "--force",
-                           cwd=tmp_path), "is the input")
+                           cwd=tmp_path), "is the input", code=2)
     assert src.read_bytes() == small_log.read_bytes()
     capture = tmp_path / "dvl.pd0"
     with MissionLogReader(small_log) as log:

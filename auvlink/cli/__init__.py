@@ -2,7 +2,8 @@
 
 Each subcommand module defines ``add_arguments(parser)`` and ``run(args) -> int``.
 Errors from the package print one line on stderr (``auvlink: error: ...``) and exit 1; never a
-traceback unless ``AUVLINK_DEBUG=1``. So does an ``OSError`` that reaches here (a full disk, a path
+traceback unless ``AUVLINK_DEBUG=1`` (exit 2 for an output that would replace an input:
+:class:`~auvlink.errors.InputOverwriteError`). So does an ``OSError`` that reaches here (a full disk, a path
 that cannot be written): one line naming the file and the reason. Usage errors exit 2 (argparse).
 """
 
@@ -66,7 +67,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if os.environ.get("AUVLINK_DEBUG"):
             raise
         print(f"auvlink: error: {exc}", file=sys.stderr)
-        return 1
+        return int(getattr(exc, "exit_status", 1))  # 2: an output that would replace an input
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # e.g. `auvlink decode ... --jsonl | head`: the reader left; not an error

@@ -1,7 +1,8 @@
 """``auvlink demo``: the shipped scene -> simulated mission log -> replay -> report. No arguments needed.
 
-The output folder (default ``demo-out``) must be new or empty unless ``--force``; the log and the
-replay outputs are each written under a temporary name and renamed when whole. ``--json``: one JSON
+The output folder (default ``demo-out``) must be new or empty unless ``--force``, never holds the
+``--scene`` at a name the demo writes (exit 2) and is locked for the run; the log and the replay
+outputs are each written under a temporary name and renamed when whole. ``--json``: one JSON
 object on stdout at the end (as ``auvlink replay --json``); the progress lines go to stderr then.
 """
 
@@ -12,8 +13,9 @@ import sys
 import time
 from pathlib import Path
 
-from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.atomic import check_output_file
 from auvlink.jsonutil import dumps
+from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 from auvlink.sim.scene import load_default_scene, load_scene
 
 
@@ -26,12 +28,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="print one JSON object (counts, detections, outputs, timings) on stdout, nothing else")
 
 
-def run(args: argparse.Namespace) -> int:
-    # lazy: Open3D, trimesh, SciPy and matplotlib (the parser imports every subcommand module)
+DEMO_LOG = "mission.mcap"
 
-    check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
-    log = args.out / "mission.mcap"
-    check_output_file(log, force=True, inputs=[args.scene], what="log")  # a leftover mission.mcap.partial
+
+def run(args: argparse.Namespace) -> int:
+    log = args.out / DEMO_LOG
+    refuse_input_overwrite([args.scene], files=[("--out", log)], folder=("--out", args.out))
+    with output_dir_lock(args.out, force=args.force):  # before any work (and before the heavy imports)
+        check_output_file(log, force=True, inputs=[args.scene], what="log")  # a leftover mission.mcap.partial
+        return _run(args, log)
+
+
+def _run(args: argparse.Namespace, log: Path) -> int:
+    # lazy: Open3D, trimesh, SciPy and matplotlib (the parser imports every subcommand module)
     from auvlink.cli.replay import json_result, process, scores_line
     from auvlink.sim.mission import simulate_to_log
 

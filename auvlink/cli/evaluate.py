@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 
 from auvlink.atomic import check_output_dir, check_output_file, write_text
 from auvlink.jsonutil import to_jsonable
+from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 
 if TYPE_CHECKING:
     from classify.evaluate import EvalReport
@@ -69,9 +70,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="write into a non-empty DIR (files of the same names replaced)")
 
 
+#: what eval writes in DIR (held-out: eval.json and its figure, the 2D baseline's; --surveys: surveys/ and the pool)
+EVAL_OUTPUTS = frozenset({"eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png", "surveys",
+                          "surveys.json", "surveys.png"})
+
+
 def run(args: argparse.Namespace) -> int:
-    if args.surveys is not None:
-        return _surveys(args)
+    refuse_input_overwrite([args.model], folder=("--out", args.out),
+                           writes=lambda rel: rel.parts[0] in EVAL_OUTPUTS)
+    with output_dir_lock(args.out, force=args.force):  # DIR is this run's until it ends
+        return _surveys(args) if args.surveys is not None else _held_out(args)
+
+
+def _held_out(args: argparse.Namespace) -> int:
     # lazy: PyTorch, Open3D and SciPy load only for this command (the parser imports every subcommand module)
     from auvlink.evaluation.recon_eval import evaluate_recon, reconstruct_set, standard_passes
 

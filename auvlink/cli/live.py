@@ -5,9 +5,11 @@ Opens every port of the configuration, records the mission log (``DIR/mission.mc
 classification as the data comes, writing each object to ``DIR/detections.jsonl`` when it is final.
 A port that goes is reopened with backoff (the log marks the gap). Ctrl-C / SIGTERM (or the end of
 ``--duration``) flush everything: DIR gets ``cloud.ply``, ``summary.json`` and ``report.html``, the
-log its last chunk. DIR must be new or empty unless ``--force`` (an existing ``--log`` likewise); the
-log is ``mission.mcap.partial`` until it is closed. A full disk stops the run with one line, exit 1,
-and DIR still gets every file that can be written. See docs/LIVE.md for real hardware.
+log its last chunk. DIR must be new or empty unless ``--force`` (an existing ``--log`` likewise) and is
+locked for the run; the ``--log`` is never a file the run writes in DIR (``--log DIR/results.mcap``: the
+raw mission would be replaced by the viewer file at the end), nor the ``--config`` or ``--model`` (exit
+2, :mod:`auvlink.pipeline.run_guard`); the log is ``mission.mcap.partial`` until it is closed. A full disk stops the
+run with one line, exit 1, and DIR still gets every file that can be written. See docs/LIVE.md for real hardware.
 """
 
 from __future__ import annotations
@@ -20,9 +22,10 @@ import threading
 from pathlib import Path
 from types import FrameType
 
-from auvlink.atomic import check_output_dir, check_output_file
+from auvlink.atomic import check_output_file
 from auvlink.cli.replay import scores_line
 from auvlink.errors import AuvlinkError
+from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -45,20 +48,26 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
-    from auvlink.pipeline.live import LiveRun
-    from auvlink.pipeline.report import write_report
-    from auvlink.pipeline.results import Detection
-
     if not args.config.is_file():
         raise AuvlinkError(f"{args.config}: no such configuration file")
     if not args.backoff_max > 0:
         raise AuvlinkError(f"--backoff-max must be > 0, got {args.backoff_max}")
     if args.sonar_queue < 1:
         raise AuvlinkError(f"--sonar-queue must be >= 1, got {args.sonar_queue}")
-    check_output_dir(args.out, force=args.force)
-    check_output_file(args.log or args.out / "mission.mcap", force=args.force, inputs=[args.config],
-                      option="--log", what="log")
+    log = args.log or args.out / "mission.mcap"
+    refuse_input_overwrite([args.config, args.model], files=[("--log", log)], folder=("--out", args.out))
+    refuse_input_overwrite([log], folder=("--out", args.out))  # the log is the next run's input
+    with output_dir_lock(args.out, force=args.force):
+        check_output_file(log, force=args.force, inputs=[args.config, args.model], option="--log", what="log")
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
+    from auvlink.pipeline.live import LiveRun
+    from auvlink.pipeline.report import write_report
+    from auvlink.pipeline.results import Detection
+
     objects = args.out / "objects"
     if args.force and objects.is_dir() and not objects.is_symlink():
         shutil.rmtree(objects)  # replaced whole, as replay does: no PLY of the last run beside the new ones

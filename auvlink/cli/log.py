@@ -6,8 +6,10 @@
     auvlink log import CANLOG.asc|.blf --out LOG.mcap [--force] [--device NAME]
 
 Outputs are checked before any work: an existing ``--out`` (a non-empty folder for ``export``) is
-replaced only with ``--force``, ``import X --out X`` is refused, and the output is written under a
-temporary name (a temporary folder for ``export``) renamed when whole.
+replaced only with ``--force``; an output that is or would replace the input (``import X --out X``,
+its ``.partial``, ``export DIR/a.csv --out DIR``: exit 2, :mod:`auvlink.pipeline.run_guard`) is refused even with
+it; ``export`` holds its folder's lock for the run; the output is written under a temporary name (a
+temporary folder for ``export``) renamed when whole.
 
 ``export`` writes a CSV per navigation channel, every ``--every``-th sonar frame as a fan PNG (default
 25: about 80 PNGs for a 3-minute mission at 11 frames/s; ``--every 1`` for all) and ``navigation.csv``,
@@ -21,8 +23,9 @@ import json
 import sys
 from pathlib import Path
 
-from auvlink.atomic import atomic_dir, check_output_dir, check_output_file
+from auvlink.atomic import atomic_dir, check_output_file
 from auvlink.jsonutil import to_jsonable
+from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 from logs_format.export import export_log
 from logs_format.importers import import_can_log, import_serial_capture, is_can_log
 from logs_format.info import format_info, log_info
@@ -73,7 +76,14 @@ def _export(args: argparse.Namespace) -> int:
         raise LogError(f"no such log: {args.log}")
     if args.every < 1:
         raise LogError(f"--every must be >= 1, got {args.every}")
-    check_output_dir(args.out, force=args.force)
+    # export writes <channel>.csv, navigation.csv and a folder per sonar channel (replaced whole)
+    refuse_input_overwrite([args.log], folder=("--out", args.out),
+                           writes=lambda rel: len(rel.parts) > 1 or rel.suffix in (".csv", ".png"))
+    with output_dir_lock(args.out, force=args.force):
+        return _export_into(args)
+
+
+def _export_into(args: argparse.Namespace) -> int:
     channels = [c for c in args.channels.split(",") if c] if args.channels else None
     nav_rows: int | None = None
     with atomic_dir(args.out) as tmp:

@@ -4,8 +4,10 @@ The raw frames go back through the same framers, codecs and drivers as live oper
 navigation, reconstruction, clustering and classification. DIR receives ``detections.jsonl``,
 ``cloud.ply``, ``objects/*.ply`` (per point object id and time; ``--ply-frame zup`` for viewers that
 want z up), ``results.mcap`` (Foxglove schemas: docs/VIEWER.md), ``summary.json`` and ``report.html``.
-DIR is checked before any work (new or empty unless ``--force``, writable) and filled in a temporary
-folder renamed when whole (:func:`auvlink.atomic.atomic_dir`).
+DIR is checked before any work (new or empty unless ``--force``, writable; never a folder where the
+run would replace its log, ``--config`` or ``--model``: exit 2, :mod:`auvlink.pipeline.run_guard`), locked for the
+run (a second run into it is refused) and filled in a temporary folder renamed when whole
+(:func:`auvlink.atomic.atomic_dir`).
 ``--json``: one JSON object on stdout at the end (:func:`json_result`), nothing else there (progress and
 warnings go to stderr).
 """
@@ -18,10 +20,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from auvlink.atomic import atomic_dir, check_output_dir
+from auvlink.atomic import atomic_dir
 from auvlink.config import load_config
 from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import dumps
+from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -126,10 +129,11 @@ def loss_line(log: Path, summary: dict[str, object]) -> str | None:
 
 def run(args: argparse.Namespace) -> int:
     check_inputs(args.log, args.speed)
-    check_output_dir(args.out, force=args.force)  # before any work (and before the heavy imports)
-    summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
-                      report=not args.no_report, progress=not args.quiet, config=args.config,
-                      ply_frame=args.ply_frame)
+    refuse_input_overwrite([args.log, args.config, args.model], folder=("--out", args.out))
+    with output_dir_lock(args.out, force=args.force):  # checked before any work (and before the heavy imports)
+        summary = process(args.log, args.out, speed=args.speed, model=args.model, classify=not args.no_classify,
+                          report=not args.no_report, progress=not args.quiet, config=args.config,
+                          ply_frame=args.ply_frame)
     line = loss_line(args.log, summary)
     if line:
         print(line, file=sys.stderr)
