@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from scenes import obj, scene_toml
 
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import load_scene
@@ -25,36 +26,6 @@ REMOVED = "reef_a"  # not in the third survey
 
 DATUM = (36.0412, 129.3915)  # the site datum (WGS84 degrees of the NED origin): Jangil Bay, Pohang
 
-SCENE = """
-seed = {seed}
-[site]
-latitude = 36.0412
-longitude = 129.3915
-[gnss]
-wait_before_s = 3.0
-wait_after_s = 3.0
-vertical_rate = 2.0
-[seabed]
-depth = 20.0
-roughness = 0.02
-{objects}
-[survey]
-origin = [0.0, 0.0]
-heading_deg = 0.0
-line_length = 36.0
-line_spacing = 3.5
-lines = 2
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 10.0
-[sensors]
-start = "{start}"
-"""
 
 SURVEYS = (("survey_2026_01", 3, "2026-01-10T08:00:00Z", True),
            ("survey_2026_02", 4, "2026-02-10T08:00:00Z", True),
@@ -62,9 +33,12 @@ SURVEYS = (("survey_2026_01", 3, "2026-01-10T08:00:00Z", True),
 
 
 def scene_text(seed: int, start: str, with_removed: bool) -> str:
-    objects = "".join(f'[[objects]]\nclass = "{c}"\nposition = [{n}, {e}]\nheading_deg = 30.0\n'
-                      for c, (n, e) in OBJECTS.items() if with_removed or c != REMOVED)
-    return SCENE.format(seed=seed, objects=objects, start=start)
+    """Two 36 m lines at the site over :data:`OBJECTS` (less :data:`REMOVED` unless ``with_removed``), the
+    sensors' clock starting at ``start`` (ISO 8601 UTC), GNSS fixes at the surface before and after."""
+    return scene_toml(seed=seed, site={"latitude": DATUM[0], "longitude": DATUM[1]},
+                      gnss={"wait_before_s": 3.0, "wait_after_s": 3.0, "vertical_rate": 2.0},
+                      objects=[obj(c, n, e, 30.0) for c, (n, e) in OBJECTS.items() if with_removed or c != REMOVED],
+                      survey={"line_length": 36.0, "lines": 2}, sensors={"start": start})
 
 
 def site_logs(factory: pytest.TempPathFactory) -> list[Path]:

@@ -1,13 +1,17 @@
-"""Shared fixtures: the real vendor captures in ../shared/data, and a leak check for threads."""
+"""Shared fixtures: the real vendor captures in ../shared/data, the small mission simulated and replayed once
+per session, and leak checks for threads, file descriptors and CAN buses."""
 
 from __future__ import annotations
 
+import contextlib
+import json
 import os
 import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from small_mission import SmallMissionRun, simulate_small
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
@@ -18,6 +22,24 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.skip(f"real captures not found at {SHARED_DATA} (clone with ../shared beside it)")
     return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def small_mission_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The small mission simulated once per session. Read-only: a test that edits it works on a copy."""
+    return simulate_small(tmp_path_factory.mktemp("small-mission") / "mission.mcap")
+
+
+@pytest.fixture(scope="session")
+def small_mission_run(small_mission_log: Path) -> SmallMissionRun:
+    """The small mission replayed once per session (classified, with the report). Read-only, like the log."""
+    from auvlink.cli import main
+
+    out = small_mission_log.parent / "out"
+    capture = small_mission_log.parent / "stdout.json"
+    with open(capture, "w") as f, contextlib.redirect_stdout(f):
+        assert main(["replay", str(small_mission_log), "--out", str(out), "--quiet", "--json"]) == 0
+    return SmallMissionRun(small_mission_log, out, json.loads(capture.read_text()))  # one JSON object only
 
 
 @pytest.fixture(autouse=True)

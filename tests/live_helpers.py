@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scenes import obj, scene_toml
 
 from auvlink.config import load_config
 from auvlink.sim.live import serve
@@ -19,38 +20,9 @@ from auvlink.virtual import free_tcp_port
 ROOT = Path(__file__).resolve().parents[1]
 
 # one 26 m line at 2 m/s (13 s), two objects on it
-SCENE = """
-seed = 5
-[seabed]
-depth = 20.0
-slope_deg = 0.0
-slope_azimuth_deg = 0.0
-roughness = 0.02
-[[objects]]
-class = "pipe"
-position = [10.0, 0.3]
-heading_deg = 60.0
-[[objects]]
-class = "reef_c"
-position = [19.0, -0.3]
-heading_deg = 0.0
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 0.0
-line_length = 26.0
-line_spacing = 3.5
-lines = 1
-altitude = 5.0
-speed = 2.0
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 10.0
-"""
 TRUTH_NE = ((10.0, 0.3), (19.0, -0.3))
+SCENE = scene_toml(seed=5, objects=[obj("pipe", *TRUTH_NE[0], 60.0), obj("reef_c", *TRUTH_NE[1], 0.0)],
+                   survey={"line_length": 26.0, "speed": 2.0})
 
 
 def classes_against_truth(detections: list[dict[str, Any]], scene_text: str) -> tuple[list[str], list[str]]:

@@ -1,47 +1,33 @@
-"""A small simulated mission (one 40 m line over a pipe and a reef, about 27 s; ~2 s to simulate)."""
+"""A small simulated mission (one 40 m line over a pipe and a reef, about 27 s; ~2 s to simulate).
+
+Tests that need it simulated and replayed take the session fixtures ``small_mission_log`` and
+``small_mission_run`` (tests/conftest.py) instead of simulating it again."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from auvlink.sim.mission import simulate_to_log
-from auvlink.sim.scene import loads_scene
+from scenes import BASE, scene_toml
 
-SCENE = """
-seed = 11
-[seabed]
-depth = 20.0
-slope_deg = 0.0
-slope_azimuth_deg = 0.0
-roughness = 0.02
-[[objects]]
-class = "pipe"
-position = [16.0, 0.3]
-heading_deg = 60.0
-[[objects]]
-class = "reef_c"
-position = [30.0, -0.3]
-heading_deg = 0.0
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 0.0
-line_length = 40.0
-line_spacing = 3.5
-lines = 1
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 10.0
-"""
-TRUTH = {"pipe": (16.0, 0.3), "reef_c": (30.0, -0.3)}
+SCENE = scene_toml()
+TRUTH = {o["class"]: tuple(o["position"]) for o in BASE["objects"]}  # class -> (north, east) m
+
+
+@dataclass(frozen=True)
+class SmallMissionRun:
+    """The small mission replayed by ``auvlink replay LOG --out OUT --quiet --json``."""
+
+    log: Path  # the simulated mission log
+    out: Path  # the replay's folder: detections.jsonl, summary.json, report.html, results.mcap, objects/ ...
+    doc: dict[str, Any]  # the JSON object the command printed
 
 
 def simulate_small(path: Path) -> Path:
     """Simulate the mission into ``path`` (a mission log) and return it."""
+    from auvlink.sim.mission import simulate_to_log
+    from auvlink.sim.scene import loads_scene
+
     simulate_to_log(loads_scene(SCENE), path, progress=False)
     return path

@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from small_mission import simulate_small
 
 from auvlink.sim.scene import CLASSES
 from classify.checkpoint import load_checkpoint, save_checkpoint
@@ -22,6 +21,7 @@ from classify.labels import CLUTTER, with_clutter
 from classify.pointnet import PointNet, PointNetConfig
 from classify.scan_synth import energy_first_return
 from recon.pipeline import ReconConfig
+from recon.target_envelope import MAX_OBJECT_EXTENT_M
 
 torch.set_num_threads(1)
 SETTINGS = replace(load_train_settings().synthesis, seed=31)
@@ -76,7 +76,7 @@ def test_clutter_clusters_look_like_recon_clutter() -> None:
     for pts, depth in found:
         h = depth - pts[:, 2]
         wide = float(np.max(np.ptp(pts[:, :2], axis=0)))
-        assert len(pts) >= cfg.cluster.min_cluster_points and wide <= cfg.max_object_extent
+        assert len(pts) >= cfg.cluster.min_cluster_points and wide <= MAX_OBJECT_EXTENT_M
         assert 0.1 <= float(np.percentile(h, 95)) <= 0.8, np.percentile(h, 95)
     a, _ = synthesize_clutter(SETTINGS, 3)
     b, _ = synthesize_clutter(SETTINGS, 3)
@@ -116,12 +116,8 @@ def test_decision_rule_and_old_checkpoints(tmp_path: Path) -> None:
     assert all(c in CLASSES for c, _ in clf8.decide(np.eye(8, dtype=np.float32)))
 
 
-@pytest.fixture(scope="module")
-def mission(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return simulate_small(tmp_path_factory.mktemp("clutter") / "mission.mcap")
-
-
-def test_engine_counts_clutter_and_does_not_report_it(mission: Path, tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_engine_counts_clutter_and_does_not_report_it(small_mission_log: Path, tmp_path: Path) -> None:
     """The real replay path (framers, codecs, engine, recon, the shipped model) of a small mission with the
     shipped model's threshold moved: at 0 every cluster is clutter, counted in the stats and summary.json and
     never reported; above 1 none is, and both objects are reported."""
@@ -135,7 +131,8 @@ def test_engine_counts_clutter_and_does_not_report_it(mission: Path, tmp_path: P
         model = save_checkpoint(tmp_path / f"{name}.pt", ck.model, ck.class_names, ck.n_points, ck.synthesis,
                                 ck.train, ck.metrics, {**ck.calibration, "clutter_threshold": thr})
         seen: list[str] = []
-        result = run_log(mission, model=model, progress=False, on_detection=lambda d, s=seen: s.append(d.class_name))
+        result = run_log(small_mission_log, model=model, progress=False,
+                         on_detection=lambda d, s=seen: s.append(d.class_name))
         summary = write_outputs(result, tmp_path / name)
         lines = (tmp_path / name / "detections.jsonl").read_text().splitlines()
         runs[name] = (result, summary, lines, seen)

@@ -11,6 +11,7 @@ from typing import Any
 import jsonschema
 import numpy as np
 import pytest
+from scenes import obj, scene_toml
 
 from auvlink.cli.schemas import schema_texts
 from auvlink.config import VehicleConfig, config_from_metadata, load_config, loads_config
@@ -130,28 +131,9 @@ def test_shipped_files_validate_against_the_schemas() -> None:
 
 
 # -- a log whose stored vehicle configuration is damaged -------------------------------------------
-SCENE = """
-seed = 3
-[seabed]
-depth = 12.0
-[[objects]]
-class = "box"
-position = [8.0, 0.0]
-[survey]
-line_length = 14.0
-line_spacing = 3.0
-lines = 1
-altitude = 4.0
-speed = 1.0
-[sonar]
-tilt_deg = 30.0
-window_start = 1.0
-window_length = 10.0
-fps = 5.0
-lever_arm = [0.6, 0.0, 0.2]
-[noise]
-enabled = false
-"""
+SCENE = scene_toml(seed=3, seabed={"depth": 12.0, "roughness": None}, objects=[obj("box", 8.0, 0.0)],
+                   survey={"line_length": 14.0, "line_spacing": 3.0, "altitude": 4.0, "speed": 1.0},
+                   sonar={"fps": 5.0, "lever_arm": [0.6, 0.0, 0.2]}, noise={"enabled": False})
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from scenes import scene_toml
 
 from auvlink.pipeline.engine_config import EngineConfig
 from auvlink.pipeline.process import FRAME_BLOCK, run_log
@@ -17,30 +18,11 @@ from auvlink.sim.scene import loads_scene
 
 pytest.importorskip("open3d")
 
-SCENE = """seed = 37
-[seabed]
-depth = 30.0
-slope_deg = 9.9
-slope_azimuth_deg = 250.0
-roughness = 0.07
-
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 137.6
-line_length = 16.0
-line_spacing = 2.1
-lines = 2
-altitude = 5.9
-speed = 0.75
-
-[sonar]
-tilt_deg = 26.0
-spread_deg = 14.0
-window_start = 2.0
-window_length = 14.0
-fps = 6.5
-"""
+# two 16 m lines and a turn over an empty rough seabed sloping 9.9 deg
+SCENE = scene_toml(seed=37, seabed={"depth": 30.0, "slope_deg": 9.9, "slope_azimuth_deg": 250.0, "roughness": 0.07},
+                   objects=[], survey={"heading_deg": 137.6, "line_length": 16.0, "line_spacing": 2.1, "lines": 2,
+                                       "altitude": 5.9, "speed": 0.75},
+                   sonar={"tilt_deg": 26.0, "window_start": 2.0, "window_length": 14.0, "fps": 6.5})
 
 
 @pytest.fixture(scope="module")

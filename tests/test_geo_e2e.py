@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 import pytest
+from scenes import obj, scene_toml
 
 from auvlink.pipeline.outputs import write_outputs
 from auvlink.pipeline.process import run_log
@@ -32,36 +33,15 @@ def truth_ne() -> np.ndarray:
 
 
 def scene_text(gnss: bool) -> str:
-    objs = "".join(f'[[objects]]\nclass = "{c}"\nposition = [{p[0]:.4f}, {p[1]:.4f}]\nheading_deg = 20.0\n'
-                   for (c, _, _), p in zip(OBJECTS, truth_ne(), strict=True))
-    text = f"""seed = 11
-[site]
-latitude = {SITE[0]}
-longitude = {SITE[1]}
-[seabed]
-depth = 12.0
-roughness = 0.02
-{objs}
-[survey]
-origin = [{ORIGIN[0]:.4f}, {ORIGIN[1]:.4f}]
-heading_deg = {HEADING}
-line_length = 45.0
-line_spacing = 3.5
-lines = 1
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-window_start = 1.0
-window_length = 10.0
-fps = 10.0
-[vehicle]
-current = [0.12, -0.08]
-"""
-    if gnss:
-        text += ("[gnss]\nrate_hz = 2.0\nsigma_m = 0.3\nwait_before_s = 8.0\nwait_after_s = 6.0\n"
-                 "start_offset = [14.0, 10.0]\nvertical_rate = 0.8\n")
-    return text
+    """One 45 m line south-west across a current at the site, over :data:`OBJECTS`; with or without GNSS."""
+    objects = [obj(c, round(p[0], 4), round(p[1], 4), 20.0) for (c, _, _), p in zip(OBJECTS, truth_ne(), strict=True)]
+    gnss_table = {"rate_hz": 2.0, "sigma_m": 0.3, "wait_before_s": 8.0, "wait_after_s": 6.0,
+                  "start_offset": [14.0, 10.0], "vertical_rate": 0.8}
+    return scene_toml(site={"latitude": SITE[0], "longitude": SITE[1]},
+                      seabed={"depth": 12.0, "slope_deg": None, "slope_azimuth_deg": None}, objects=objects,
+                      survey={"origin": [round(ORIGIN[0], 4), round(ORIGIN[1], 4)], "heading_deg": HEADING,
+                              "line_length": 45.0},
+                      vehicle={"current": [0.12, -0.08]}, gnss=gnss_table if gnss else None)
 
 
 def run(tmp: Path, gnss: bool) -> tuple[Path, MissionResult, dict]:

@@ -13,6 +13,7 @@ import pytest
 from mcap.exceptions import DecoderNotFoundError
 from mcap.reader import make_reader
 from mcap.writer import Writer
+from scenes import obj, scene_toml
 
 from auvlink import formats
 from auvlink.sim.mission import simulate_to_log
@@ -20,42 +21,11 @@ from auvlink.sim.scene import loads_scene
 from logs_format import DecoderFactory
 from logs_format.specs import SPECS, parse_descriptor
 
-SCENE = """
-seed = 3
-[site]
-latitude = 36.0412
-longitude = 129.3915
-[gnss]
-rate_hz = 1.0
-sigma_m = 0.3
-wait_before_s = 3.0
-wait_after_s = 3.0
-lever_arm = [0.0, 0.0, -0.5]
-[seabed]
-depth = 20.0
-slope_deg = 0.0
-slope_azimuth_deg = 0.0
-roughness = 0.02
-[[objects]]
-class = "pipe"
-position = [8.0, 0.0]
-heading_deg = 0.0
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 0.0
-line_length = 10.0
-line_spacing = 3.5
-lines = 1
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 5.0
-"""
+# one 10 m line over a pipe, with a GNSS receiver at the surface before and after
+SCENE = scene_toml(seed=3, site={"latitude": 36.0412, "longitude": 129.3915},
+                   gnss={"rate_hz": 1.0, "sigma_m": 0.3, "wait_before_s": 3.0, "wait_after_s": 3.0,
+                         "lever_arm": [0.0, 0.0, -0.5]},
+                   objects=[obj("pipe", 8.0, 0.0, 0.0)], survey={"line_length": 10.0}, sonar={"fps": 5.0})
 
 
 @pytest.fixture(scope="module")

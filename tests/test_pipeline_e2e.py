@@ -9,26 +9,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 from live_helpers import classes_against_truth
-from small_mission import SCENE, simulate_small
+from small_mission import SCENE, TRUTH, SmallMissionRun
 
 from auvlink.cli import main
 
 
-@pytest.fixture(scope="module")
-def mission(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("e2e") / "mission.mcap"
-    simulate_small(path)
-    return path
-
-
-def test_replay_finds_the_objects(mission: Path, tmp_path: Path) -> None:
-    out = tmp_path / "out"
-    assert main(["replay", str(mission), "--out", str(out), "--quiet"]) == 0
+@pytest.mark.slow
+def test_replay_finds_the_objects(small_mission_run: SmallMissionRun) -> None:
+    out = small_mission_run.out  # auvlink replay of the small mission, once per session
     dets = [json.loads(line) for line in (out / "detections.jsonl").read_text().splitlines()]
     for d in dets:
         assert set(d) >= {"id", "class", "score", "position_ned", "size", "n_points", "t_first", "t_last", "cloud"}
         assert (out / d["cloud"]).is_file() and 0.0 <= d["score"] <= 1.0 and d["t_first"] <= d["t_last"]
-    truth = np.array([[16.0, 0.3], [30.0, -0.3]])
+    truth = np.array(list(TRUTH.values()))
     found = np.array([d["position_ned"][:2] for d in dets]).reshape(-1, 2)
     # each true object has one detection within 1 m, and nothing else was detected
     dist = np.linalg.norm(found[:, None] - truth[None], axis=2)

@@ -8,28 +8,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+from scenes import obj, scene_toml
+
 from auvlink.progress import on_terminal, progress_bar
 
 ROOT = Path(__file__).resolve().parents[1]
-TINY = """
-seed = 11
-[seabed]
-depth = 15.0
-[[objects]]
-class = "sphere"
-position = [8.0, 0.3]
-[survey]
-line_length = 12.0
-line_spacing = 3.0
-lines = 2
-altitude = 4.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-window_start = 1.0
-window_length = 8.0
-fps = 2.0
-"""
+TINY = scene_toml(seabed={"depth": 15.0, "roughness": None, "slope_deg": None, "slope_azimuth_deg": None},
+                  objects=[obj("sphere", 8.0, 0.3)],
+                  survey={"line_length": 12.0, "line_spacing": 3.0, "lines": 2, "altitude": 4.0},
+                  sonar={"window_length": 8.0, "fps": 2.0})
 
 
 def test_sim_with_stderr_in_a_file_writes_no_progress_bar(tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scenes import scene_toml
 
 import recon.pipeline as rp
 from auvlink.evaluation.batch import run_log_batch
@@ -54,30 +55,11 @@ def test_level_vehicle_lever_and_mountings() -> None:
     assert np.allclose(dvl_seabed_offsets(level, np.array([5.0]), Mounting())[0], [0.0, 0.0, 5.0])
 
 
-SLOPED = """seed = 11
-[seabed]
-depth = 25.0
-slope_deg = 10.0
-slope_azimuth_deg = 30.0
-roughness = 0.0
-
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 30.0
-line_length = 20.0
-line_spacing = 4.0
-lines = 2
-altitude = 6.0
-speed = 1.0
-
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 2.0
-window_length = 14.0
-fps = 5.0
-"""
+# two 20 m lines over an empty smooth seabed sloping 10 deg
+SLOPED = scene_toml(seabed={"depth": 25.0, "slope_deg": 10.0, "slope_azimuth_deg": 30.0, "roughness": 0.0}, objects=[],
+                    survey={"heading_deg": 30.0, "line_length": 20.0, "line_spacing": 4.0, "lines": 2,
+                            "altitude": 6.0, "speed": 1.0},
+                    sonar={"window_start": 2.0, "window_length": 14.0, "fps": 5.0})
 
 
 @pytest.fixture(scope="module")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scenes import scene_toml
 
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_band import BandConfig, OnsetTracker, seabed_returns
@@ -90,30 +91,11 @@ def test_a_one_bin_return_is_the_seabed_return() -> None:
     assert np.all(two[2] == row + 6)  # what asking for two bins found: 6 bins late
 
 
-ROUGH_SCENE = """seed = 5
-[seabed]
-depth = 25.0
-slope_deg = 7.0
-slope_azimuth_deg = 60.0
-roughness = 0.08
-
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 20.0
-line_length = 30.0
-line_spacing = 3.0
-lines = 2
-altitude = 3.5
-speed = 1.5
-
-[sonar]
-tilt_deg = 37.0
-spread_deg = 14.0
-window_start = 0.5
-window_length = 7.2
-fps = 15.0
-"""
+# two lines at 3.5 m over a rough seabed sloping 7 deg, nothing on it
+ROUGH_SCENE = scene_toml(seed=5, seabed={"depth": 25.0, "slope_deg": 7.0, "slope_azimuth_deg": 60.0, "roughness": 0.08},
+                         objects=[], survey={"heading_deg": 20.0, "line_length": 30.0, "line_spacing": 3.0, "lines": 2,
+                                             "altitude": 3.5},
+                         sonar={"tilt_deg": 37.0, "window_start": 0.5, "window_length": 7.2, "fps": 15.0})
 
 
 @pytest.fixture(scope="module")

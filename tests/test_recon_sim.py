@@ -21,6 +21,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scenes import obj, scene_toml
 
 from auvlink.evaluation.simeval import SimFrames, cluster_errors, evaluate, nav_drift, simulate
 from recon.far_side import FarSideConfig
@@ -33,34 +34,11 @@ OBJECTS = [("sphere", 8.0, 0.5), ("box", 16.0, -0.6), ("reef_a", 25.0, 0.3), ("p
 
 
 def scene_text(slope_deg: float, azimuth_deg: float = 90.0) -> str:
-    objs = "".join(f'[[objects]]\nclass = "{c}"\nposition = [{n}, {e}]\nheading_deg = {17.0 * i}\n\n'
-                   for i, (c, n, e) in enumerate(OBJECTS))
-    return f"""seed = 11
-[seabed]
-depth = 20.0
-slope_deg = {slope_deg}
-slope_azimuth_deg = {azimuth_deg}
-roughness = 0.02
-
-{objs}[survey]
-pattern = "lawnmower"
-origin = [-4.0, 0.0]
-heading_deg = 0.0
-line_length = 44.0
-line_spacing = 3.5
-lines = 2
-altitude = 5.0
-speed = 1.5
-
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 10.0
-lever_arm = [0.6, 0.0, 0.2]
-rays_per_beam = 16
-"""
+    """Two 44 m lines over the seven objects on a seabed sloping ``slope_deg`` towards ``azimuth_deg``."""
+    return scene_toml(seabed={"slope_deg": slope_deg, "slope_azimuth_deg": azimuth_deg},
+                      objects=[obj(c, n, e, 17.0 * i) for i, (c, n, e) in enumerate(OBJECTS)],
+                      survey={"origin": [-4.0, 0.0], "line_length": 44.0, "lines": 2},
+                      sonar={"lever_arm": [0.6, 0.0, 0.2], "rays_per_beam": 16})
 
 
 CONFIG = ReconConfig()
@@ -115,28 +93,10 @@ def test_front_slope_correction_meets_accuracy_goal(mission: SimFrames) -> None:
     assert on.distances.size == off.distances.size  # the correction moves points, it removes none
 
 
-NAV_SCENE = """seed = 5
-[seabed]
-depth = 30.0
-slope_deg = 2.0
-slope_azimuth_deg = 45.0
-roughness = 0.02
-[survey]
-pattern = "lawnmower"
-origin = [0.0, 0.0]
-heading_deg = 30.0
-line_length = 60.0
-line_spacing = 4.0
-lines = 3
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-spread_deg = 14.0
-window_start = 1.0
-window_length = 10.0
-fps = 1.0
-"""
+# three 60 m lines and two turns over an empty 30 m seabed
+NAV_SCENE = scene_toml(seed=5, seabed={"depth": 30.0, "slope_deg": 2.0, "slope_azimuth_deg": 45.0}, objects=[],
+                       survey={"heading_deg": 30.0, "line_length": 60.0, "line_spacing": 4.0, "lines": 3},
+                       sonar={"fps": 1.0})
 
 
 def test_navigation_drift_with_default_noise(tmp_path: object) -> None:

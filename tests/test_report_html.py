@@ -7,7 +7,6 @@ anything (no CDN). False and missed detections are listed by name when the truth
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
 import re
@@ -15,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from browser_helpers import HeadlessChromium, chromium_or_skip
-from small_mission import TRUTH, simulate_small
+from small_mission import TRUTH, SmallMissionRun
 
 from auvlink.cli import main
 from auvlink.pipeline.report import render_report
@@ -23,18 +22,12 @@ from auvlink.pipeline.setup import TruthObject
 
 
 @pytest.fixture(scope="module")
-def replayed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, object], Path]:
-    """``auvlink replay --json`` on the small mission: (output folder, the parsed JSON, the log)."""
-    root = tmp_path_factory.mktemp("report")
-    log = simulate_small(root / "mission.mcap")
-    out = root / "out"
-    capture = root / "stdout.txt"
-    with open(capture, "w") as f, contextlib.redirect_stdout(f):
-        assert main(["replay", str(log), "--out", str(out), "--quiet", "--json"]) == 0
-    text = capture.read_text()
-    return out, json.loads(text), log  # json.loads fails on anything but one JSON object
+def replayed(small_mission_run: SmallMissionRun) -> tuple[Path, dict[str, object], Path]:
+    """``auvlink replay --json`` on the small mission (once per session): (output folder, the JSON, the log)."""
+    return small_mission_run.out, small_mission_run.doc, small_mission_run.log
 
 
+@pytest.mark.slow
 def test_replay_json_is_one_object(replayed: tuple[Path, dict[str, object], Path]) -> None:
     out, doc, log = replayed
     assert doc["command"] == "replay" and doc["log"] == str(log) and doc["out"] == str(out)
@@ -55,6 +48,8 @@ def test_replay_json_is_one_object(replayed: tuple[Path, dict[str, object], Path
     assert doc["log_loss"]["state"] == "complete"  # type: ignore[index]
 
 
+@pytest.mark.slow
+@pytest.mark.browser
 def test_report_renders_in_headless_chromium(replayed: tuple[Path, dict[str, object], Path]) -> None:
     binary = chromium_or_skip()
     out, doc, _ = replayed
@@ -101,6 +96,7 @@ def test_report_renders_in_headless_chromium(replayed: tuple[Path, dict[str, obj
     assert got["fans"] >= n_det, got  # the sonar frames that saw each object, decoded by the browser
 
 
+@pytest.mark.slow
 def test_report_names_false_and_missed_detections(replayed: tuple[Path, dict[str, object], Path]) -> None:
     import auvlink
 
@@ -121,6 +117,7 @@ def test_report_names_false_and_missed_detections(replayed: tuple[Path, dict[str
     assert "reef_c at north 40.00 m, east 5.00 m" in missed.group(1) and missed.group(1).count("<li>") == 1
 
 
+@pytest.mark.slow
 def test_a_full_disk_gets_the_live_page_without_figures(replayed: tuple[Path, dict[str, object], Path],
                                                    tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import errno
@@ -152,6 +149,7 @@ def test_a_full_disk_gets_the_live_page_without_figures(replayed: tuple[Path, di
         report.write_report(result, {"scores": None}, tmp_path)
 
 
+@pytest.mark.slow
 def test_demo_json_is_one_object(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from small_mission import SCENE
 

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pymap3d
 import pytest
+from scenes import scene_toml
 
 from auvlink.codecs import nmea
 from auvlink.errors import ConfigError
@@ -16,36 +17,13 @@ from auvlink.sim.mission import prepare
 from auvlink.sim.scene import loads_scene
 from auvlink.sim.trajectory import LawnmowerTrajectory
 
-SCENE = """
-seed = 4
-[site]
-latitude = 36.0412
-longitude = 129.3915
-[seabed]
-depth = 14.0
-slope_deg = 1.0
-[survey]
-origin = [-180.0, -160.0]
-heading_deg = 225.0
-line_length = 30.0
-line_spacing = 3.5
-lines = 2
-altitude = 5.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-window_start = 1.0
-window_length = 10.0
-fps = 2.0
-[vehicle]
-current = [0.1, -0.05]
-[gnss]
-rate_hz = 2.0
-sigma_m = 0.0
-start_offset = [12.0, 9.0]
-wait_before_s = 6.0
-wait_after_s = 5.0
-"""
+# two lines south-west, 250 m from the datum, with a GNSS receiver fixing at the surface before and after
+SCENE = scene_toml(seed=4, site={"latitude": 36.0412, "longitude": 129.3915},
+                   seabed={"depth": 14.0, "slope_deg": 1.0, "roughness": None}, objects=[],
+                   survey={"origin": [-180.0, -160.0], "heading_deg": 225.0, "line_length": 30.0, "lines": 2},
+                   sonar={"fps": 2.0}, vehicle={"current": [0.1, -0.05]},
+                   gnss={"rate_hz": 2.0, "sigma_m": 0.0, "start_offset": [12.0, 9.0], "wait_before_s": 6.0,
+                         "wait_after_s": 5.0})
 
 
 def test_phases_are_continuous_and_start_at_the_offset() -> None:

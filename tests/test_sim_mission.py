@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from scenes import obj, scene_toml
 from scipy.spatial.transform import Rotation
 
 from auvlink.cli import main
@@ -21,34 +22,11 @@ from logs_format import MissionLogReader, Replay
 from recon.frames import bottom_track_to_vehicle, rdi_ship_to_body
 from recon.nav import pressure_to_depth
 
-TINY = """
-seed = 11
-[seabed]
-depth = 15.0
-slope_deg = 2.0
-slope_azimuth_deg = 45.0
-roughness = 0.02
-[[objects]]
-class = "sphere"
-position = [8.0, 0.3]
-[[objects]]
-class = "box"
-position = [4.0, 3.0]
-heading_deg = 30.0
-[survey]
-line_length = 12.0
-line_spacing = 3.0
-lines = 2
-altitude = 4.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-window_start = 1.0
-window_length = 8.0
-fps = 2.0
-[vehicle]
-current = [0.1, 0.05]
-"""
+# two short lines over a sphere and a box on a 15 m seabed sloping 2 deg, across a current
+TINY = scene_toml(seabed={"depth": 15.0, "slope_deg": 2.0, "slope_azimuth_deg": 45.0},
+                  objects=[obj("sphere", 8.0, 0.3), obj("box", 4.0, 3.0, 30.0)],
+                  survey={"line_length": 12.0, "line_spacing": 3.0, "lines": 2, "altitude": 4.0},
+                  sonar={"window_length": 8.0, "fps": 2.0}, vehicle={"current": [0.1, 0.05]})
 START_NS = 1_767_225_600 * 10**9  # 2026-01-01T00:00:00Z
 
 

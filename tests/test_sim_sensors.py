@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scenes import merge, obj, scene_toml
 
 from auvlink.codecs import can_nav, didson, dsp1760, keller, paro, pd0, pd0_build
 from auvlink.errors import ConfigError
@@ -21,35 +22,15 @@ from auvlink.sim.sonar_render import SonarRenderer
 from recon.frames import bottom_track_to_vehicle, rdi_ship_to_body
 from recon.nav import pressure_to_depth
 
-TINY = """
-seed = 11
-[seabed]
-depth = 15.0
-slope_deg = 2.0
-slope_azimuth_deg = 45.0
-roughness = 0.02
-[[objects]]
-class = "sphere"
-position = [8.0, 0.3]
-[survey]
-line_length = 12.0
-line_spacing = 3.0
-lines = 2
-altitude = 4.0
-speed = 1.5
-[sonar]
-tilt_deg = 30.0
-window_start = 1.0
-window_length = 8.0
-fps = 2.0
-[vehicle]
-current = [0.1, 0.05]
-"""
-FLAT_LEVEL = TINY.replace("slope_deg = 2.0", "slope_deg = 0.0").replace("roughness = 0.02", "roughness = 0.0") + """
-roll_amplitude_deg = 0.0
-pitch_amplitude_deg = 0.0
-yaw_amplitude_deg = 0.0
-"""
+# two short lines over a sphere on a 15 m seabed sloping 2 deg, across a current
+TINY_SECTIONS = {"seabed": {"depth": 15.0, "slope_deg": 2.0, "slope_azimuth_deg": 45.0},
+                 "objects": [obj("sphere", 8.0, 0.3)],
+                 "survey": {"line_length": 12.0, "line_spacing": 3.0, "lines": 2, "altitude": 4.0},
+                 "sonar": {"window_length": 8.0, "fps": 2.0}}
+TINY = scene_toml(**TINY_SECTIONS, vehicle={"current": [0.1, 0.05]})
+FLAT_LEVEL = scene_toml(**merge(TINY_SECTIONS, {"seabed": {"slope_deg": 0.0, "roughness": 0.0}}),
+                        vehicle={"current": [0.1, 0.05], "roll_amplitude_deg": 0.0, "pitch_amplitude_deg": 0.0,
+                                 "yaw_amplitude_deg": 0.0})
 DECODE = {"pd0": pd0.decode, "dsp1760": dsp1760.decode, "paro": paro.decode, "keller": keller.decode,
           "can": can_nav.decode, "didson": didson.decode}
 

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 from PIL import Image
-from small_mission import simulate_small
+from small_mission import SmallMissionRun
 
 from auvlink.cli import main
 from auvlink.pipeline.outputs import write_points_ply
@@ -40,13 +40,9 @@ TOPICS = {
 
 
 @pytest.fixture(scope="module")
-def replayed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    base = tmp_path_factory.mktemp("viewer")
-    log = base / "mission.mcap"
-    simulate_small(log)
-    out = base / "out"
-    assert main(["replay", str(log), "--out", str(out), "--quiet", "--no-report"]) == 0
-    return log, out
+def replayed(small_mission_run: SmallMissionRun) -> tuple[Path, Path]:
+    """The small mission's log and its replay folder (replayed once per session)."""
+    return small_mission_run.log, small_mission_run.out
 
 
 def decoded(path: Path) -> tuple[dict[str, list[tuple[int, Any]]], dict[str, Any], dict[str, dict[str, str]]]:
@@ -62,6 +58,7 @@ def decoded(path: Path) -> tuple[dict[str, list[tuple[int, Any]]], dict[str, Any
     return by_topic, schemas, meta
 
 
+@pytest.mark.slow
 def test_results_mcap_decodes_every_channel_with_its_schemas(replayed: tuple[Path, Path]) -> None:
     log, out = replayed
     msgs, schemas, meta = decoded(out / "results.mcap")
@@ -163,6 +160,7 @@ def test_the_shipped_layout_names_only_topics_the_file_has() -> None:
     assert {"3D", "Image", "map", "Plot"} <= set(panels)
 
 
+@pytest.mark.slow
 def test_ply_files_carry_object_id_and_time(replayed: tuple[Path, Path]) -> None:
     _, out = replayed
     dets = [json.loads(line) for line in (out / "detections.jsonl").read_text().splitlines()]
@@ -255,6 +253,7 @@ def test_oriented_box_turns_and_moves_with_its_points(turn: float, dn: float, de
     assert np.allclose(b1.centre, c0, atol=1e-9) and 0 <= b1.yaw_deg < 180 and b1.length_m >= b1.width_m
 
 
+@pytest.mark.slow
 def test_log_export_navigation_is_the_replay_track_and_fans_are_subsampled(
         replayed: tuple[Path, Path], tmp_path: Path) -> None:
     log, out = replayed
