@@ -23,14 +23,26 @@ antenna in the body frame, so the fixes of a vehicle that moves or rolls on the 
   offset; no drift correction). Without any accepted fix, D stays the frame: positions are relative
   to the first navigation sample, and :meth:`GnssAnchor.frame` says so.
 
+**What dead reckoning allows.** Between the dive and the fixes after surfacing, dead reckoning drifts
+by at most :func:`drift_bound_m`: ``closure_base_m`` (the fix scatter: each anchor is a mean of fixes
+within ``max_gate_m`` of their median, so two anchors differ by at most twice that) plus the distance
+travelled (dead-reckoned path, m) x (DVL scale accuracy + sin(start heading error + gyro bias drift x
+mission time)). A fix after surfacing whose residual is farther than that from the start anchor is not
+used (``beyond_dead_reckoning``); when every such fix is (at least ``min_fixes``), the closure is
+*refused*: no correction, the dead-reckoned track with the start anchor is kept, and :meth:`GnssAnchor.summary`
+says so (``closure_refused``: the disagreement, the bound, the fixes).
+
 Rejected fixes are counted by reason, never used: ``no_fix`` (quality 0 or an empty position),
 ``poor_hdop`` (HDOP above ``max_hdop``), ``submerged`` (a fix while the navigation says the antenna is
-under water), ``before_navigation`` (no pose yet), ``outliers`` (outside the gate), ``later_dives``.
-Only one dive / surface cycle is modelled: fixes after the vehicle dives again are counted, not used.
+under water), ``before_navigation`` (no pose yet), ``outliers`` (outside the gate), ``later_dives``,
+``beyond_dead_reckoning``; the caller counts more (:meth:`GnssAnchor.reject` takes any key: fix
+qualities that are not measurements, implausible values). Only one dive / surface cycle is modelled:
+fixes after the vehicle dives again are counted, not used.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,7 +50,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 F64 = NDArray[np.float64]
-REASONS = ("no_fix", "poor_hdop", "submerged", "before_navigation", "outliers", "later_dives")
+REASONS = ("no_fix", "poor_hdop", "submerged", "before_navigation", "outliers", "later_dives",
+           "beyond_dead_reckoning")
+#: DVL bottom-track velocity accuracy as a fraction of the distance travelled (Teledyne RDI Workhorse
+#: Navigator 600 kHz data sheet: long-term accuracy +-0.2 % +-0.1 cm/s)
+DVL_SCALE_ACCURACY = 0.002
+#: start heading error, deg (Teledyne RDI Workhorse data sheet: internal flux-gate compass accuracy +-2 deg;
+#: dead reckoning takes its start heading from the DVL compass, recon.nav_stream)
+START_HEADING_ERROR_DEG = 2.0
+#: gyro heading drift, deg/h (KVH DSP-1760 data sheet: bias instability 0.05 deg/h, taken as a steady drift)
+GYRO_DRIFT_DEG_PER_H = 0.05
 
 
 @dataclass(frozen=True)
@@ -51,6 +72,13 @@ class AnchorConfig:
     max_gate_m: float = 10.0  # largest: fixes that scatter more than this are not a position
     gate_sigmas: float = 5.0
     min_fixes: int = 3
+    closure_base_m: float = 20.0  # the fix scatter allowed between two anchors: twice max_gate_m
+
+
+def drift_bound_m(distance_m: float, duration_s: float, cfg: AnchorConfig) -> float:
+    """The most dead reckoning can drift (m) over ``distance_m`` travelled in ``duration_s`` (module doc)."""
+    heading = math.radians(START_HEADING_ERROR_DEG + GYRO_DRIFT_DEG_PER_H * max(duration_s, 0.0) / 3600.0)
+    return cfg.closure_base_m + max(distance_m, 0.0) * (DVL_SCALE_ACCURACY + math.sin(min(heading, math.pi / 2)))
 
 
 def robust_mean(r: F64, cfg: AnchorConfig) -> tuple[F64 | None, NDArray[np.bool_]]:
@@ -90,6 +118,9 @@ class GnssAnchor:
         self.pre = _Fixes()
         self.post = _Fixes()
         self.counts: dict[str, int] = {"received": 0, **{k: 0 for k in REASONS}}
+        self.beyond = _Fixes()  # fixes after surfacing farther from the start anchor than dead reckoning allows
+        self.bound_m: float | None = None  # the drift bound at the last fix after surfacing
+        self.travelled_m: float | None = None  # the dead-reckoned path from the dive to that fix
         self._resurfaced_then_dived = False
 
     # ------------------------------------------------------------------ input
@@ -105,15 +136,16 @@ class GnssAnchor:
             self._resurfaced_then_dived = True
 
     def reject(self, reason: str, n: int = 1) -> None:
-        """Count ``n`` fixes not used, for ``reason`` (one of :data:`REASONS`)."""
+        """Count ``n`` fixes not used, for ``reason`` (one of :data:`REASONS`, or the caller's own key)."""
         self.counts["received"] += n
-        self.counts[reason] += n
+        self.counts[reason] = self.counts.get(reason, 0) + n
 
     def add_fix(self, t: float, fix_ne: ArrayLike, hdop: float, position_d: ArrayLike | None,
-                rotation: Any = None, depth: float | None = None) -> bool:
+                rotation: Any = None, depth: float | None = None, travelled_m: float | None = None) -> bool:
         """One fix with a position (antenna, W north/east m) at ``t``; ``position_d`` the dead-reckoned
         body position (frame D) at t and ``rotation`` R_WB (scipy, one) there, ``depth`` the navigation
-        depth (m). Returns whether it was used."""
+        depth (m), ``travelled_m`` the dead-reckoned path (m) from the dive to t (None: not checked against
+        :func:`drift_bound_m`). Returns whether it was used."""
         cfg = self.config
         fix = np.asarray(fix_ne, dtype=np.float64).ravel()[:2]
         if not np.all(np.isfinite(fix)):
@@ -136,10 +168,18 @@ class GnssAnchor:
         arm = np.asarray(rotation.apply(lever), dtype=np.float64).ravel()[:2] if rotation is not None and \
             np.any(lever) else np.zeros(2)
         self.counts["received"] += 1
+        r = fix - p - arm
         if self.t_dive is None or t < self.t_dive:
-            self.pre.add(t, fix - p - arm, fix)
-        else:
-            self.post.add(t, fix - p - arm, fix)
+            self.pre.add(t, r, fix)
+            return True
+        start = self.start_anchor
+        if start is not None and travelled_m is not None:
+            self.bound_m, self.travelled_m = drift_bound_m(travelled_m, t - self.t_dive, cfg), travelled_m
+            if float(np.hypot(*(r - start))) > self.bound_m:
+                self.counts["beyond_dead_reckoning"] += 1
+                self.beyond.add(t, r, fix)
+                return False
+        self.post.add(t, r, fix)
         return True
 
     # ------------------------------------------------------------------ output
@@ -166,6 +206,18 @@ class GnssAnchor:
             return None
         off, _ = robust_mean(self.post.array(), self.config)
         return None if off is None else off - start
+
+    @property
+    def closure_refused(self) -> dict[str, Any] | None:
+        """The closure the fixes after surfacing would give when every one of them is beyond what dead
+        reckoning allows (module doc): ``closure_ne_m``, ``closure_m``, ``bound_m``, ``fixes``; else None."""
+        start = self.start_anchor
+        off, inl = robust_mean(self.beyond.array(), self.config)
+        if start is None or off is None or self.closure is not None:
+            return None
+        c = off - start
+        return {"closure_ne_m": [float(v) for v in c], "closure_m": float(np.hypot(*c)), "bound_m": self.bound_m,
+                "travelled_m": self.travelled_m, "fixes": int(inl.sum())}
 
     @property
     def t_surfaced(self) -> float | None:
@@ -201,7 +253,7 @@ class GnssAnchor:
         counts = {**self.counts, "outliers": self.counts["outliers"] + outliers,
                   "used_before_dive": int(pre_in.sum()) if pre_off is not None else 0,
                   "used_after_surfacing": int(post_in.sum()) if post_off is not None else 0}
-        closure = self.closure
+        closure, refused = self.closure, self.closure_refused
         return {
             "frame": self.frame(),
             "start_anchor_ne_m": None if pre_off is None else [float(v) for v in pre_off],
@@ -210,6 +262,8 @@ class GnssAnchor:
             "closure_m": None if closure is None else float(np.hypot(*closure)),
             "t_dive_s": self.t_dive, "t_surfaced_s": self.t_surfaced, "t_closure_s": self.t_closure,
             "correction": "linear in time from the dive to the fixes after surfacing" if closure is not None
+            else "refused (beyond what dead reckoning can drift): the dead-reckoned track is kept" if refused
             else "none",
+            "closure_bound_m": self.bound_m, "closure_refused": refused,
             "fixes": counts,
         }

@@ -14,7 +14,10 @@ rejected); this module turns its fields into SI records:
 - any other sentence that passes the checksum: :class:`NmeaSentence` (talker, type, fields as sent).
 
 A field left empty (a receiver without a fix sends ``$GPGGA,,,,,,0,00,99.99,,,,,,*48``) decodes to
-NaN (numbers) or -1 (satellites). Every record keeps its fields exactly as sent (``data``), so
+NaN (numbers) or -1 (satellites). A position out of range (latitude outside [-90, 90], longitude outside
+[-180, 180]) or a HDOP <= 0 decodes as sent, with ``has_fix`` false and ``implausible`` saying why
+(:mod:`auvlink.codecs.nmea_checks`, which also says which fix qualities are measurements). Every
+record keeps its fields exactly as sent (``data``), so
 ``encode(decode(line)) == line`` for a line with CR LF; :func:`build_gga`, :func:`build_rmc` and
 :func:`build_zda` make the records the simulator sends (pynmea2 renders the sentence and its checksum).
 """
@@ -28,15 +31,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from auvlink.codecs._util import ValueEq
+from auvlink.codecs.nmea_checks import QUALITY, RMC_MODE_QUALITY, implausible
 from auvlink.errors import ChecksumError, DecodeError, EncodeError
 from auvlink.formats import WireFormat
 from auvlink.framing.nmea import NmeaFramer
 
 FMT = "nmea"
 KNOT = 1852.0 / 3600.0  # m/s
-#: GGA fix-quality codes (NMEA 0183 v4.11)
-QUALITY = {0: "no fix", 1: "GPS", 2: "DGPS", 3: "PPS", 4: "RTK fixed", 5: "RTK float", 6: "estimated",
-           7: "manual", 8: "simulation"}
 
 
 def _num(text: str) -> float:
@@ -84,9 +85,17 @@ class GgaFix(ValueEq):
     data: tuple[str, ...] = ()  # the fields as sent
 
     @property
+    def implausible(self) -> str | None:
+        """Why the position sent is not a possible fix (:func:`auvlink.codecs.nmea_checks.implausible`), or None."""
+        if math.isnan(self.latitude_deg) and math.isnan(self.longitude_deg):
+            return None  # no position sent
+        return implausible(self.latitude_deg, self.longitude_deg, self.hdop)
+
+    @property
     def has_fix(self) -> bool:
-        """Quality > 0 and a finite position."""
-        return self.quality > 0 and math.isfinite(self.latitude_deg) and math.isfinite(self.longitude_deg)
+        """Quality > 0 and a finite, plausible position (quality 6, 7, 8 included: see :attr:`quality`)."""
+        return self.quality > 0 and math.isfinite(self.latitude_deg) and math.isfinite(self.longitude_deg) and \
+            self.implausible is None
 
     @property
     def ellipsoidal_height_m(self) -> float:
@@ -110,9 +119,21 @@ class RmcFix(ValueEq):
     data: tuple[str, ...] = ()
 
     @property
+    def implausible(self) -> str | None:
+        """Why the position sent is not a possible fix, or None (also None when no position was sent)."""
+        if math.isnan(self.latitude_deg) and math.isnan(self.longitude_deg):
+            return None
+        return implausible(self.latitude_deg, self.longitude_deg)
+
+    @property
+    def quality(self) -> int:
+        """The GGA fix quality of the same meaning (0 for status V; RMC_MODE_QUALITY; unknown modes 0)."""
+        return RMC_MODE_QUALITY.get(self.mode, 0) if self.valid else 0
+
+    @property
     def has_fix(self) -> bool:
         return self.valid and self.mode != "N" and math.isfinite(self.latitude_deg) and \
-            math.isfinite(self.longitude_deg)
+            math.isfinite(self.longitude_deg) and self.implausible is None
 
     @property
     def utc(self) -> float | None:
@@ -292,12 +313,12 @@ def to_json(record: NmeaRecord) -> dict[str, Any]:
                 "quality": record.quality, "quality_name": QUALITY.get(record.quality, "unknown"),
                 "satellites": record.satellites, "hdop": _finite(record.hdop), "altitude_m": _finite(record.altitude_m),
                 "geoid_separation_m": _finite(record.geoid_separation_m), "dgps_age_s": _finite(record.dgps_age_s),
-                "has_fix": record.has_fix}
+                "has_fix": record.has_fix, "implausible": record.implausible}
     if isinstance(record, RmcFix):
         return {"type": "RMC", "talker": record.talker, "utc": record.utc, "valid": record.valid,
                 "latitude_deg": _finite(record.latitude_deg), "longitude_deg": _finite(record.longitude_deg),
                 "speed_mps": _finite(record.speed_mps), "course_rad": _finite(record.course_rad), "mode": record.mode,
-                "has_fix": record.has_fix}
+                "has_fix": record.has_fix, "implausible": record.implausible}
     if isinstance(record, ZdaTime):
         return {"type": "ZDA", "talker": record.talker, "utc": record.utc, "zone_hours": record.zone_hours,
                 "zone_minutes": record.zone_minutes}

@@ -2,49 +2,68 @@
 
 The engine feeds :class:`Georef` the navigation depth samples and the GNSS fixes (routed from the
 ``nmea`` device as :class:`GnssPayload` by :class:`auvlink.pipeline.nav_inputs.NavAdaptor`), in time
-order, with the causal navigator for the pose at each fix. :class:`recon.nav_anchor.GnssAnchor` does
-the anchoring; this class holds the datum (the vehicle configuration's ``[site]``; without one, the
-first fix with a position becomes the datum and the summary says so), converts fixes to W (PROJ,
-:mod:`auvlink.geodesy`) and positions of dead reckoning's frame D to W: ``p_W = p_D + offset`` (live:
-the start anchor) ``+ correction(t)`` (at the end: the closure error distributed over the submerged
-track).
+order, with the causal navigator for the pose at each fix. Every fix is gated first
+(:func:`auvlink.codecs.nmea_checks.fix_rejection`): only a measured fix quality (GGA 1, 2, 4, 5; RMC
+status A with such a mode) and a plausible position (latitude, longitude in range, HDOP > 0) go on;
+the others are counted by kind (``no_fix``, ``quality_estimated``, ``quality_simulation``, ...,
+``implausible``). :class:`recon.nav_anchor.GnssAnchor` does the anchoring (outliers against the robust
+mean of a surface period, fixes after surfacing beyond what dead reckoning can drift, the closure
+refused when it is). This class holds the datum: the vehicle configuration's ``[site]``; without one,
+the mean of the first :data:`DATUM_FIXES` fixes that agree within the anchor's outlier gate of their
+median (never a single fix; until then there is no datum and the fixes wait). It converts fixes to W
+(PROJ, :mod:`auvlink.geodesy`) and positions of dead reckoning's frame D to W: ``p_W = p_D + offset``
+(live: the start anchor) ``+ correction(t)`` (at the end: the closure error distributed over the
+submerged track). Nothing here raises on a fix: a fix the conversion cannot take is counted
+(``unconvertible``) and skipped.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from pyproj.exceptions import ProjError
 
+from auvlink.codecs.nmea_checks import fix_rejection
 from auvlink.geodesy import Datum
-from recon.nav_anchor import AnchorConfig, GnssAnchor
+from recon.nav_anchor import AnchorConfig, GnssAnchor, robust_mean
 
 F64 = NDArray[np.float64]
+#: fixes that make a datum without ``[site]``: the median / MAD gate of :func:`recon.nav_anchor.robust_mean`
+#: outvotes up to 2 wild fixes of 5, and 5 s at the slowest receiver rate (1 Hz) fits every surface wait
+DATUM_FIXES = 5
+#: fixes kept waiting for a datum; older ones are dropped (counted ``outliers``) while the fixes disagree
+DATUM_WINDOW = 4 * DATUM_FIXES
 
 
 class GnssPayload(NamedTuple):
     latitude: float  # deg (NaN without a fix)
     longitude: float
     height: float  # m above the ellipsoid (NaN when unknown)
-    quality: int
-    hdop: float
+    quality: int  # GGA fix quality (RMC: the quality of its mode, auvlink.codecs.nmea_checks.RMC_MODE_QUALITY)
+    hdop: float  # NaN when not sent
+
+
+class _Pending(NamedTuple):
+    t: float
+    fix: GnssPayload
+    pose: tuple[Any, Any] | None  # (position (1, 3) in D, R_WB) at t, None before navigation
+    travelled_m: float | None
 
 
 def gnss_payload(fmt_record: Any, seen_gga: bool) -> GnssPayload | None:
-    """A GGA sentence (or, from a receiver that sends no GGA, an RMC) as a fix; other sentences: None."""
+    """A GGA sentence (or, from a receiver that sends no GGA, an RMC) as a fix, values as sent (the gate is
+    :meth:`Georef.on_fix`'s); other sentences: None."""
     from auvlink.codecs import nmea
 
     r = fmt_record
     if isinstance(r, nmea.GgaFix):
-        ok = r.has_fix
-        return GnssPayload(r.latitude_deg if ok else math.nan, r.longitude_deg if ok else math.nan,
-                           r.ellipsoidal_height_m, r.quality if ok else 0, r.hdop)
+        return GnssPayload(r.latitude_deg, r.longitude_deg, r.ellipsoidal_height_m, r.quality, r.hdop)
     if isinstance(r, nmea.RmcFix) and not seen_gga:
-        ok = r.has_fix
-        return GnssPayload(r.latitude_deg if ok else math.nan, r.longitude_deg if ok else math.nan, math.nan,
-                           1 if ok else 0, math.nan)
+        return GnssPayload(r.latitude_deg, r.longitude_deg, math.nan, r.quality, math.nan)
     return None
 
 
@@ -57,26 +76,87 @@ class Georef:
         self.datum_source = "vehicle configuration [site]" if site is not None else None
         self.has_gnss = has_gnss
         self.anchor = GnssAnchor(AnchorConfig(lever_arm=lever_arm))
-        self.fixes_ne: list[tuple[float, float, float]] = []  # (t, north, east) of every fix with a position
+        self.fixes_ne: list[tuple[float, float, float]] = []  # (t, north, east) of every fix the anchor took
+        self._pending: list[_Pending] = []  # fixes waiting for a datum (no [site])
+        self._path: tuple[float, float, F64] | None = None  # (t, path m since the dive, D position) at the last fix
+        self._warned = False
 
     def on_depth(self, t: F64, depth: F64) -> None:
         self.anchor.observe_depth(t, depth)
 
     def on_fix(self, t: float, fix: GnssPayload, nav: Any) -> None:
-        if fix.quality <= 0 or not (math.isfinite(fix.latitude) and math.isfinite(fix.longitude)):
-            self.anchor.reject("no_fix")
+        """One fix at mission time ``t`` (s): gated, then to the anchor (module docstring); never raises."""
+        reason = fix_rejection(fix.quality, fix.latitude, fix.longitude, fix.hdop)
+        if reason is not None:
+            self.anchor.reject(reason)
             return
+        pose = nav.pose_at(t) if nav.covered(t)[0] else None
+        item = _Pending(t, fix, pose, self._travelled(t, pose, nav))
         if self.datum is None:
-            self.datum = Datum(round(fix.latitude, 7), round(fix.longitude, 7), 0.0)
-            self.datum_source = "the first GNSS fix (the configuration has no [site])"
-        h = fix.height if math.isfinite(fix.height) else None
-        ne = self.datum.to_ned(fix.latitude, fix.longitude, h)[0, :2]
-        self.fixes_ne.append((t, float(ne[0]), float(ne[1])))
-        if not nav.covered(t)[0]:
-            self.anchor.add_fix(t, ne, fix.hdop, None)
+            self._pending.append(item)
+            self._datum_from_pending()
             return
-        pos, rot = nav.pose_at(t)
-        self.anchor.add_fix(t, ne, fix.hdop, pos[0], rot, depth=float(pos[0, 2]))
+        self._use(item)
+
+    def _travelled(self, t: float, pose: tuple[Any, Any] | None, nav: Any) -> float | None:
+        """Dead-reckoned path (m) from the dive to ``t``: the navigator's track up to the first fix after the
+        dive, then the chord from fix to fix (seconds apart on the surface). None before the dive."""
+        t_dive = self.anchor.t_dive
+        if pose is None or t_dive is None or t < t_dive:
+            return None
+        p = np.asarray(pose[0], dtype=np.float64)[0, :2]
+        if self._path is None:
+            tg, pos = nav.positions(1)
+            keep = (tg >= t_dive) & (tg <= t)
+            q = np.vstack([pos[keep, :2], p[None, :]])
+            length = float(np.sum(np.hypot(*np.diff(q, axis=0).T)))
+        else:
+            t_last, length, p_last = self._path
+            length += float(np.hypot(*(p - p_last))) if t >= t_last else 0.0
+        self._path = (t, length, p)
+        return length
+
+    def _datum_from_pending(self) -> None:
+        """The datum from the robust mean of the first DATUM_FIXES fixes that agree (module docstring)."""
+        pend = self._pending
+        if len(pend) < DATUM_FIXES:
+            return
+        lat = np.array([x.fix.latitude for x in pend])
+        lon = np.array([x.fix.longitude for x in pend])
+        ref = Datum(float(np.median(lat)), float(np.median(lon)))
+        off, inl = robust_mean(ref.to_ned(lat, lon)[:, :2], self.anchor.config)
+        if off is None or int(inl.sum()) < DATUM_FIXES:
+            if len(pend) > DATUM_WINDOW:
+                self.anchor.reject("outliers")
+                del pend[0]
+            return
+        la, lo, _ = ref.to_geodetic([float(off[0]), float(off[1]), 0.0])
+        self.datum = Datum(round(float(la[0]), 7), round(float(lo[0]), 7), 0.0)
+        self.datum_source = (f"the mean of the first {DATUM_FIXES} GNSS fixes that agree (the configuration "
+                             "has no [site])")
+        self._pending = []
+        for item in pend:
+            self._use(item)
+
+    def _use(self, item: _Pending) -> None:
+        assert self.datum is not None
+        fix = item.fix
+        try:
+            ne = self.datum.to_ned(fix.latitude, fix.longitude, fix.height if math.isfinite(fix.height) else None)
+        except (ProjError, ValueError, ArithmeticError):
+            self.anchor.reject("unconvertible")
+            return
+        n, e = float(ne[0, 0]), float(ne[0, 1])
+        if not (math.isfinite(n) and math.isfinite(e)):
+            self.anchor.reject("unconvertible")
+            return
+        if item.pose is None:
+            self.anchor.add_fix(item.t, (n, e), fix.hdop, None)
+            return
+        pos, rot = item.pose
+        if self.anchor.add_fix(item.t, (n, e), fix.hdop, pos[0], rot, depth=float(pos[0, 2]),
+                               travelled_m=item.travelled_m):
+            self.fixes_ne.append((item.t, n, e))
 
     # ------------------------------------------------------------------ D -> W
     @property
@@ -129,9 +209,22 @@ class Georef:
         if correction is not None:
             det.drift_correction_ne = (float(correction[0]), float(correction[1]))
 
+    def refusal_line(self) -> str | None:
+        """One line when the closure was refused (:attr:`recon.nav_anchor.GnssAnchor.closure_refused`), else None."""
+        r = self.anchor.closure_refused
+        if r is None:
+            return None
+        return (f"GNSS closure refused: the fixes after surfacing put the vehicle {r['closure_m']:.0f} m from its "
+                f"dead-reckoned track, more than navigation can drift ({r['bound_m']:.0f} m over "
+                f"{r['travelled_m']:.0f} m travelled); the dead-reckoned track is kept")
+
     def finalize(self, detections: list[Any], applied: dict[int, F64], epoch: float) -> None:
         """Move every detection (position and points) to the corrected track at its middle time;
-        ``applied``: the shift each was handed on with (updated)."""
+        ``applied``: the shift each was handed on with (updated). A refused closure: one line on stderr."""
+        line = self.refusal_line()
+        if line is not None and not self._warned:
+            self._warned = True
+            print(f"auvlink: warning: {line}", file=sys.stderr)
         for det in detections:
             t_mid = 0.5 * (det.t_first + det.t_last) - epoch
             target = self.shift(t_mid, corrected=True)[0]

@@ -2,9 +2,10 @@
 longitude axes (top: longitude, right: latitude, WGS84 deg) when the run is geo-referenced.
 
 Inputs are the run's geo-referencing summary (``georef``: ``georeferenced``, ``closure_m``,
-``closure_ne_m``) and the track columns (``track_info``: ``fixes`` (n, 3) = time, north, east of the
-antenna fixes; ``north``, ``east``, ``correction_north``, ``correction_east``, m), both possibly
-empty; ``to_geodetic`` maps (n, 3) NED m at the site datum to (lat deg, lon deg, height m).
+``closure_ne_m``, ``closure_refused``: a closure beyond what navigation can drift, named in the
+title) and the track columns (``track_info``: ``fixes`` (n, 3) = time, north, east of the antenna fixes;
+``north``, ``east``, ``correction_north``, ``correction_east``, m), both possibly empty;
+``to_geodetic`` maps (n, 3) NED m at the site datum to (lat deg, lon deg, height m).
 The degree axes are tied to the metric axes (they zoom and pan together): their ticks sit at round
 degree values, placed through ``to_geodetic`` (linear about the map centre: mm over a survey).
 """
@@ -65,8 +66,12 @@ def add_geography(fig: go.Figure, bounds: tuple[float, float, float, float], geo
     fig.add_shape(type="line", x0=x0, x1=x0 + bar, y0=n0, y1=n0, xref="x", yref="y",
                   line={"color": "#000", "width": 3})
     fig.add_annotation(x=x0 + bar / 2, y=n0, text=f"{bar:g} m", showarrow=False, yshift=10, xref="x", yref="y")
+    refused = georef.get("closure_refused")
+    note = (f" - GNSS closure refused: {float(refused.get('closure_m') or 0.0):.0f} m, more than navigation can "
+            f"drift ({float(refused.get('bound_m') or 0.0):.0f} m): dead-reckoned track kept"
+            if isinstance(refused, Mapping) else "")
     if not georef.get("georeferenced") or to_geodetic is None:
-        return "Survey map: positions relative to the first navigation sample (no GNSS fix)"
+        return "Survey map: positions relative to the first navigation sample (no GNSS fix)" + note
     c = np.array([(n0 + n1) / 2, (e0 + e1) / 2, 0.0])
     lat, lon, _ = to_geodetic(np.array([c, c + [100.0, 0.0, 0.0], c + [0.0, 100.0, 0.0]]))
     dlat, dlon = (lat[1] - lat[0]) / 100.0, (lon[2] - lon[0]) / 100.0
@@ -82,4 +87,4 @@ def add_geography(fig: go.Figure, bounds: tuple[float, float, float, float], geo
     datum = georef.get("datum") or {}
     where = (f" {float(datum['latitude']):.5f} N, {float(datum['longitude']):.5f} E"
              if isinstance(datum, Mapping) and "latitude" in datum and "longitude" in datum else "")
-    return f"Survey map: local NED at the datum{where} (GNSS-anchored)"
+    return f"Survey map: local NED at the datum{where} (GNSS-anchored){note}"
