@@ -1,6 +1,6 @@
 """What a raw channel of a mission log is: the schema record that names its wire format and its spec.
 
-Each raw channel of a log written since auvlink 0.1 (issue 17) carries a schema:
+Each raw channel of a log written by auvlink 0.1 or later carries a schema:
 
 * name ``auvlink.<encoding>`` (``auvlink.rdi.pd0``, ``auvlink.soundmetrics.didson``, ...);
 * encoding the wire format's own name, the channel's message encoding (``rdi.pd0``): the message

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from small_mission import TRUTH, simulate_small
+from small_mission import TRUTH
 
 from logs_format import MissionLogReader
 
@@ -46,14 +46,15 @@ def run_blocks(path: Path, blocks: list[str]) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def folder(tmp_path_factory: pytest.TempPathFactory, small_mission_log: Path) -> Path:
     root = tmp_path_factory.mktemp("api")
-    log = simulate_small(root / "mission.mcap")
-    with MissionLogReader(log) as r:  # the DVL channel's raw frames: a capture as `auvlink record` got it
+    (root / "mission.mcap").symlink_to(small_mission_log)  # the session's log, read only
+    with MissionLogReader(small_mission_log) as r:  # the DVL channel's raw frames: a capture as `auvlink record` got it
         (root / "dvl.pd0").write_bytes(b"".join(m.data for m in r.messages(channels=["dvl"])))
     return root
 
 
+@pytest.mark.slow  # replays or reads the small mission
 def test_api_doc_examples_run(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(folder)
     blocks = python_blocks(API_DOC.read_text())
@@ -68,6 +69,7 @@ def test_api_doc_examples_run(folder: Path, monkeypatch: pytest.MonkeyPatch) -> 
     assert lines[-1] == "dvl Pd0Ensemble", lines[-1]
 
 
+@pytest.mark.slow  # replays or reads the small mission
 def test_readme_api_example_runs(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(folder)
     lines = run_blocks(README, readme_api_blocks())
@@ -76,6 +78,7 @@ def test_readme_api_example_runs(folder: Path, monkeypatch: pytest.MonkeyPatch) 
     assert {d.split()[1] for d in dets} == set(TRUTH) and lines[-1] == "2 objects", lines
 
 
+@pytest.mark.slow  # replays or reads the small mission
 def test_replay_stops_when_the_consumer_breaks(folder: Path) -> None:
     import threading
 
@@ -91,6 +94,7 @@ def test_replay_stops_when_the_consumer_breaks(folder: Path) -> None:
         run.result  # noqa: B018
 
 
+@pytest.mark.slow  # replays or reads the small mission
 def test_read_needs_a_format_for_a_raw_capture(folder: Path) -> None:
     import auvlink
     from auvlink.errors import AuvlinkError
@@ -109,6 +113,7 @@ def test_import_auvlink_stays_light() -> None:
     assert done.stdout.split("\n")[:2] == ["[]", "True"], done.stdout
 
 
+@pytest.mark.slow  # replays or reads the small mission
 def test_a_run_nobody_holds_stops(folder: Path) -> None:
     import gc
     import threading
