@@ -29,7 +29,9 @@ def test_a_full_sonar_queue_drops_whole_frames_and_counts_them(tmp_path: Path) -
     assert live.drops == {"sonar": 3}
     dropped = [e for e in live.events if e["kind"] == "frame_dropped"]
     # the frames read together share a receive time: their ordinal in the device's stream tells them apart
-    assert [(e["frame_t_ns"], e["sample_index"]) for e in dropped] == [(1001, 2), (1001, 3), (1001, 4)]
+    # (the summary folds the drops into one counted entry: the first and the last; the log gets each one)
+    assert [(e["frame_t_ns"], e["sample_index"], e["count"], e["last"]) for e in dropped] == [
+        (1001, 2, 3, {"frame_t_ns": 1001, "sample_index": 4})]
     assert [live.sonar_q.get_nowait().t_host_ns for _ in range(2)] == [1000, 1001]  # the oldest kept, whole
 
 

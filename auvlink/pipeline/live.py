@@ -10,11 +10,13 @@ depend on the samples only; the engine settings and time origin go into the log,
 ``auvlink replay`` of that log gives the same detections (it skips the frames live dropped).
 
 Events (port lost / reopened, frames dropped, the log failing) go to the log's ``events`` channel
-(JSON, schema ``auvlink.Event``) and to the summary. ``stop`` (SIGINT / SIGTERM in the CLI) or the
-end of ``duration`` flushes everything: the engine finishes the open objects, DIR gets its files,
-the log its last chunk and summary. A log that cannot be written stops the run the same way, with
-the message in ``LiveRun.fatal``; what was written before stays readable, and DIR still gets every
-file that can be written (``summary["unwritten"]`` lists the others).
+(JSON, schema ``auvlink.Event``) and to the summary, folded into counts there
+(:class:`~auvlink.pipeline.events.EventFolder`: the summary stays small whatever a device does; the log
+gets every frame drop and, of a repeated event, the first ten and then the powers of two, with ``count``).
+``stop`` (SIGINT / SIGTERM in the CLI) or the end of ``duration`` flushes everything: the engine finishes
+the open objects, DIR gets its files, the log its last chunk and summary. A log that cannot be written
+stops the run the same way, with the message in ``LiveRun.fatal``; what was written before stays
+readable, and DIR still gets every file that can be written (``summary["unwritten"]`` lists the others).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from auvlink.config import VehicleConfig, load_config
 from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
+from auvlink.pipeline.events import EventFolder
 from auvlink.pipeline.fan_frames import FanRecorder
 from auvlink.pipeline.log_meta import LIVE_META
 from auvlink.pipeline.nav_inputs import SONAR_FORMATS
@@ -68,7 +71,7 @@ class LiveRun:
         self.nav_q: queue.Queue[Sample] = queue.Queue(maxsize=100_000)
         self.drops: dict[str, int] = {}
         self._delivered: dict[str, int] = {}  # samples handed over per device (each device: one reader thread)
-        self.events: list[dict[str, Any]] = []
+        self.events = EventFolder()  # port events, folded into counts (summary.json's "events")
         self.fatal = ""
         self.summary: dict[str, Any] = {}  # summary.json's content, once run() returns
         self._log: Any = None
@@ -77,11 +80,12 @@ class LiveRun:
 
     # ------------------------------------------------------------------ callbacks (reader threads)
     def _event(self, ev: dict[str, Any]) -> None:
-        self.events.append(ev)
+        count = self.events.add(ev)
         log = self._log
-        if log is not None and not self.fatal:
+        if log is not None and not self.fatal and EventFolder.logs(ev, count):
             try:
-                log.add_json(EVENT_TOPIC, EVENT_SCHEMA_NAME, EVENT_SCHEMA, int(ev["t_ns"]), ev)
+                log.add_json(EVENT_TOPIC, EVENT_SCHEMA_NAME, EVENT_SCHEMA, int(ev["t_ns"]),
+                             {**ev, "count": count} if count > 1 else ev)
             except AuvlinkError as exc:
                 self._fail(exc)
 
@@ -172,7 +176,7 @@ class LiveRun:
                    "classification_s": engine.times.total("classification"),
                    "total_s": time.perf_counter() - t_start}
         result = result_of(engine, self.log_path, timings, devices, self.fatal, mode="live", drops=self.drops,
-                           events=self.events, fan_frames=fans.frames)
+                           events=self.events.to_list(), fan_frames=fans.frames)
         self.summary = write_outputs(result, self.out_dir, keep_going=True, ply_frame=self.ply_frame)
         unwritten = self.summary.get("unwritten")
         if unwritten or stream.error is not None:

@@ -5,8 +5,11 @@ A :class:`PortReader` reads its :class:`~auvlink.driver.Driver` and hands each d
 publishes a *watermark*, the host time before which every sample of this device has been handed
 over (samples are stamped after the read returns), so a consumer knows when the devices together
 are complete up to a time. A port that fails (closed, unplugged, the peer gone) is closed, reported
-through ``on_event`` (``port_lost``), and reopened after 0.2, 0.4, 0.8 ... up to ``backoff_max`` s
-(``port_reopened`` with the gap's length). A reader whose port is closed (waiting to reopen it, or
+through ``on_event`` (``port_lost``), and reopened after a wait that grows: 0.1, 0.2, 0.4 ... up to
+``backoff_max`` s, each drawn from ``[step/2, step]`` (:class:`~auvlink.transports.backoff.Backoff`:
+jitter, a bounded rate), the step reset only by a connection that stayed up ``backoff_max`` s, so a
+device that accepts and drops every connection at once is retried at most once per ``backoff_max / 2``
+s (``port_reopened`` with the gap's length). A reader whose port is closed (waiting to reopen it, or
 inside a slow ``open``) has nothing in hand, so it holds nobody up meanwhile:
 :meth:`PortReader.holds_from` gives the consumer's own clock reading then. A port that stays open
 but silent for ``silence_s`` (a stalled socket, a sensor that stopped talking) gives ``port_silent``,
@@ -19,6 +22,7 @@ never printed: they are events.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -26,6 +30,7 @@ from auvlink.clock import now_ns
 from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError, TransportError
 from auvlink.records import Sample
+from auvlink.transports.backoff import INITIAL_S, Backoff
 
 EventSink = Callable[[dict[str, Any]], None]
 
@@ -44,15 +49,14 @@ class PortReader:
     """Reads one driver on its own thread until ``stop`` is set (see the module docstring)."""
 
     def __init__(self, driver: Driver, deliver: Callable[[Sample], None], stop: threading.Event, *,
-                 on_event: EventSink | None = None, read_timeout: float = 0.05, backoff_initial: float = 0.2,
+                 on_event: EventSink | None = None, read_timeout: float = 0.05, backoff_initial: float = INITIAL_S,
                  backoff_max: float = 5.0, opened: bool = False, silence_s: float = 1.0) -> None:
         self.driver = driver
         self.deliver = deliver
         self.stop = stop
         self.on_event = on_event
         self.read_timeout = read_timeout
-        self.backoff_initial = backoff_initial
-        self.backoff_max = backoff_max
+        self.backoff = Backoff(backoff_initial, backoff_max)
         self.watermark_ns = now_ns()
         self.is_open = opened
         self._idle = not opened  # port closed: nothing in hand, no sample before its next open returns
@@ -75,9 +79,14 @@ class PortReader:
         if self.on_event is not None:
             self.on_event({"t_ns": now_ns(), "device": self.driver.name, "kind": kind, **detail})
 
+    def _wait(self) -> None:
+        """Idle until the next reopening attempt (the backoff's next wait) or ``stop``."""
+        self.watermark_ns = now_ns()
+        self.stop.wait(self.backoff.next_wait())
+
     def _run(self) -> None:
         lost_at: int | None = None
-        delay = self.backoff_initial
+        opened_at = time.monotonic()
         last_data, last_bytes = now_ns(), -1
         silent = False
         try:
@@ -90,14 +99,12 @@ class PortReader:
                         if lost_at is None:  # never opened: a start-up failure is a gap too
                             lost_at = now_ns()
                             self._event("open_failed", error=str(exc))
-                        self.watermark_ns = now_ns()
-                        self.stop.wait(delay)
-                        delay = min(2.0 * delay, self.backoff_max)
+                        self._wait()
                         continue
                     self.watermark_ns = now_ns()  # before leaving idle: samples come after this
                     self._idle = False
                     self.is_open = True
-                    delay = self.backoff_initial
+                    opened_at = time.monotonic()
                     last_data, silent = now_ns(), False
                     if lost_at is not None:
                         back = now_ns()
@@ -114,6 +121,8 @@ class PortReader:
                     lost_at = now_ns()
                     self._event("port_lost", error=str(exc))
                     self._close()
+                    self.backoff.connection_lasted(time.monotonic() - opened_at)
+                    self._wait()  # even when the device takes the next connection at once
                     continue
                 self._transport_events()
                 t, got = now_ns(), self.driver.transport.bytes_read

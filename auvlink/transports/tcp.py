@@ -11,7 +11,9 @@ machine only. An unknown query key is an error naming the keys allowed.
 
 Client query keys: ``timeout`` (connect timeout, s, default 5), ``reconnect`` (0/1, default 0:
 when 1, a dropped connection is retried inside later reads, which return ``b""`` meanwhile,
-instead of raising :class:`~auvlink.errors.TransportOperationError`).
+instead of raising :class:`~auvlink.errors.TransportOperationError`). Retries wait as
+:class:`~auvlink.transports.backoff.Backoff` says (0.1 s doubling to 5 s, jittered, reset by a
+connection that stayed up 5 s), so a server that accepts and closes at once is not hammered.
 
 Server: binds at open (port 0 picks a free port, see :attr:`TcpServerTransport.address`) and
 serves one client, the instrument. A second connection while that client is live is refused
@@ -36,6 +38,7 @@ from typing import ClassVar
 from urllib.parse import urlsplit
 
 from auvlink.errors import TransportInitError, TransportOperationError
+from auvlink.transports.backoff import Backoff
 from auvlink.transports.base import Transport, url_query
 
 READ_CHUNK = 1 << 16
@@ -110,11 +113,15 @@ class TcpClientTransport(Transport):
             raise TransportInitError(f"bad timeout in {url!r}") from exc
         self.auto_reconnect = _flag(url, query, "reconnect")
         self.reconnects = 0
+        self.backoff = Backoff()  # the waits between retries with ``reconnect=1``
+        self._retry_at = 0.0  # monotonic time of the next retry allowed
+        self._connected_at = 0.0  # monotonic time the current connection was made
         self._sock: socket.socket | None = None
 
     def _connect(self, timeout: float) -> socket.socket:
         sock = socket.create_connection(self.address, timeout=timeout)
         sock.settimeout(None)
+        self._connected_at = time.monotonic()
         return _tune(sock)
 
     def _open(self) -> None:
@@ -151,13 +158,18 @@ class TcpClientTransport(Transport):
         ) from error
 
     def _retry(self, timeout: float | None) -> None:
+        """One connection attempt when the backoff allows it, else wait (within ``timeout``) for that time."""
         start = time.monotonic()
         budget = self.connect_timeout if timeout is None else max(timeout, 1e-3)
+        if start < self._retry_at:
+            time.sleep(min(budget, self._retry_at - start))
+            return
         try:
             self._sock = self._connect(budget)
             self.reconnects += 1
         except OSError:
-            time.sleep(max(0.0, budget - (time.monotonic() - start)))  # refused at once: don't spin
+            self._retry_at = time.monotonic() + self.backoff.next_wait()
+            time.sleep(max(0.0, min(budget - (time.monotonic() - start), self._retry_at - time.monotonic())))
 
     def _read(self, timeout: float | None) -> bytes:
         if self._sock is None:
@@ -178,6 +190,8 @@ class TcpClientTransport(Transport):
         self._close()
         self._is_open = True  # the transport stays open; only the connection went
         if self.auto_reconnect:
+            self.backoff.connection_lasted(time.monotonic() - self._connected_at)
+            self._retry_at = time.monotonic() + self.backoff.next_wait()
             return b""
         raise TransportOperationError(f"{self.url}: connection closed by the peer") from error
 
