@@ -19,6 +19,9 @@ Run: ``auvlink bench sim --out DIR`` (or ``python benchmarks/bench_sim.py --out 
   (the culled images are byte-identical to the unculled ones) in the JSON contract of docs/BENCHMARKS.md.
 - Log generation (:mod:`_sim_log`): a 3-minute (``--full``: 30-minute) survey at 10 fps with every
   device simulated into one MCAP log, in wall and CPU seconds (goal: 30 minutes in <= 60 s).
+- Acoustic profiles (:mod:`auvlink.sim.acoustics`): frames/s of ``ideal`` and of each realistic
+  profile on the same frames, in the same run (``profiles``; goal >= 200 frames/s, the real sonar
+  pings at up to 15-20 per second).
 - Smoke mode (``AUVLINK_BENCH_SMOKE=1``): 8 frames per kind, one repeat, every 8th survey pose probed.
 """
 
@@ -36,6 +39,7 @@ from _common import best_time, script_main, smoke, table, write_json
 from _sim_log import run_log
 from scipy.spatial.transform import Rotation
 
+from auvlink.sim.acoustics import PROFILES, AcousticsTable
 from auvlink.sim.scene import Scene, load_default_scene
 from auvlink.sim.sonar_geometry import SonarGeometry
 from auvlink.sim.sonar_render import OBJECT, SonarRenderer
@@ -169,6 +173,19 @@ def _culling(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]]) -> di
     return out
 
 
+def _profiles(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]], repeat: int) -> list[dict[str, Any]]:
+    """Frames/s (wall and CPU) of every acoustic profile on the same frames, ``ideal`` first."""
+    rows = []
+    for name in PROFILES:
+        rd = SonarRenderer(replace(scene, acoustics=None if name == "ideal" else AcousticsTable(profile=name)))
+        rows.append({"profile": name, "rays": rd.geometry.n_rays,
+                     "fps_objects": _fps(rd, frames["objects in view"], repeat),
+                     "fps_seabed": _fps(rd, frames["seabed only"], repeat),
+                     "fps_cpu_objects": _fps_cpu(rd, frames["objects in view"], repeat),
+                     "fps_cpu_seabed": _fps_cpu(rd, frames["seabed only"], repeat)})
+    return rows
+
+
 def _contract(rows: list[dict[str, Any]], sweep: list[dict[str, Any]], bins: list[dict[str, Any]],
               identical: dict[str, Any], default_k: int) -> dict[str, list[dict[str, Any]]]:
     """The ``tradeoffs``, ``peers`` and ``stability`` lists of docs/BENCHMARKS.md."""
@@ -227,13 +244,17 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     bins = _bins_sweep(scene, frames, repeat, ref)
     print()
     print(table(bins, ["n_bins", "bin_m", "fps_objects", "highlight_err_m"]))
+    profiles = _profiles(scene, frames, repeat)
+    print()
+    print(table(profiles, ["profile", "rays", "fps_objects", "fps_seabed", "fps_cpu_objects", "fps_cpu_seabed"]))
     identical = _culling(scene, frames)
     contract = _contract(rows, sweep, bins, identical, scene.sonar.rays_per_beam)
     print()
     print(table(contract["peers"], ["what", "ours_s", "peer_s", "ratio", "identical"]))
     k32 = {r["frames"]: r for r in rows if r["cull"] == "rays" and r["seabed"] == "sloped rough"}
     result: dict[str, Any] = {
-        "rows": rows, "k_sweep": sweep, "bins_sweep": bins, "goal_fps": 400.0, **contract,
+        "rows": rows, "k_sweep": sweep, "bins_sweep": bins, "profiles": profiles, "goal_fps": 400.0,
+        "goal_fps_profiles": 200.0, **contract,
         "fps_k32_objects": k32["objects in view"]["fps"], "fps_k32_seabed": k32["seabed only"]["fps"],
         "fps_cpu_k32_objects": k32["objects in view"]["fps_cpu"],
         "fps_cpu_k32_seabed": k32["seabed only"]["fps_cpu"],

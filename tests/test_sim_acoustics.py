@@ -14,6 +14,7 @@ from scipy import ndimage, stats
 from auvlink.errors import ConfigError
 from auvlink.sim.acoustic_image import (
     AcousticImager,
+    beam_mixing,
     spread_across_beams,
     spread_in_range,
     vertical_pattern,
@@ -150,9 +151,13 @@ def test_energy_beyond_the_edge_moves_the_onset_as_the_pattern_predicts() -> Non
 def test_sidelobes_spread_a_point_across_the_fan(sidelobe_db: float) -> None:
     e = np.zeros((96, 512))
     e[40, 200] = 1.0
-    out = spread_across_beams(e, 1.0, sidelobe_db)
-    level = 10.0 * np.log10(out[np.r_[0:38, 43:96], 200])
-    assert np.all(np.abs(level - sidelobe_db) <= 2.0)
+    out = spread_across_beams(e, beam_mixing(96, 1.0, sidelobe_db))
+    level = 10.0 * np.log10(out[:, 200])
+    assert np.abs(level[[38, 42]] - sidelobe_db).max() <= 2.0  # the first sidelobes, two beams off
+    offset = np.abs(np.arange(96) - 40)
+    far = offset >= 2
+    expected = sidelobe_db - 20.0 * np.log10(offset[far] / 2.0)  # the 1/k^2 envelope, across the fan
+    assert np.abs(level[far] - expected).max() <= 2.0 and level[95] > sidelobe_db - 40.0
     assert out[40, 200] == 1.0 and out[41, 200] == pytest.approx(2.0 ** -4)  # -3 dB at half a beam
     assert np.all(out[:, :200] == 0.0) and np.all(out[:, 201:] == 0.0)
 

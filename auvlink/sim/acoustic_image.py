@@ -19,8 +19,10 @@ Output: the uint8 image ``[range bin, beam]``. Steps, all vectorized over the fr
    in range), so a level seabed is one continuous band at any ``K``; a sample without such a
    neighbour keeps its share in its own bin (an edge).
 3. Pulse: each bin's energy spreads over ``[r, r + pulse_m]`` (a rectangular pulse; the echo's
-   leading edge stays at the true range). Azimuth pattern: each beam receives its neighbours at
-   the gaussian main lobe's level and every other beam of the fan at ``sidelobe_db``.
+   leading edge stays at the true range). Azimuth pattern: each beam receives the others through
+   its two-way response, a gaussian main lobe and sidelobes from ``sidelobe_db`` two beams off,
+   falling as ``1/k^2`` with the offset (:func:`beam_mixing`): the arcs across the fan of a
+   strong return.
 4. Speckle (multiplicative, unit mean: gamma intensity of ``speckle_looks`` looks, times a gamma
    texture of shape ``texture_shape`` when > 0: K-distributed amplitude), additive noise
    (exponential power of mean ``noise_floor_db`` at the window's middle, scaled by the TVG's
@@ -58,6 +60,8 @@ OBJECT_GAP_M = 0.15
 MIN_COS = 0.05
 #: widest interference band, bins (a DVL ping of ~1 ms blanks a few centimetres of range)
 MAX_BAND_BINS = 7
+#: OpenBLAS multiplies a GEMM of fewer multiply-adds on one thread (SMP_THRESHOLD_MIN x 4, interface/gemm.c)
+SINGLE_THREAD_GEMM = 65536 * 4 - 1
 SINC2_HALF_POWER = 0.442946470689452  # x where (sin(pi x) / (pi x))^2 = 1/2
 
 
@@ -90,30 +94,43 @@ EXP_TABLE = np.asarray(-np.log1p(-(np.arange(65536) + 0.5) / 65536.0), np.float3
 
 
 def spread_in_range(energy: F64, pulse_bins: float) -> F64:
-    """Beam-major (beams, bins): each bin's energy spread uniformly over the next ``pulse_bins`` bins."""
+    """Beam-major (beams, bins): each bin's energy spread uniformly over the next ``pulse_bins`` bins
+    (``floor`` whole bins, then the fraction in one more): a rectangular pulse, energy kept."""
     if pulse_bins <= 1.0:
         return energy
-    n = energy.shape[1]
-    cum = np.zeros((energy.shape[0], n + 1))
-    np.cumsum(energy, axis=1, out=cum[:, 1:])
-    t = np.arange(1, n + 1) - pulse_bins  # bin m averages the input over [t, m + 1)
-    i = np.floor(t).astype(np.int64)
-    lo, hi = np.clip(i, 0, n), np.clip(i + 1, 0, n)
-    back = cum[:, lo] + (t - i) * (cum[:, hi] - cum[:, lo])
-    back[:, t < 0.0] = 0.0
-    return np.asarray((cum[:, 1:] - back) / pulse_bins)
+    whole = int(pulse_bins)
+    frac = pulse_bins - whole
+    out = energy.copy()
+    for j in range(1, whole):  # one pass per whole tap of the pulse
+        out[:, j:] += energy[:, :-j]
+    if frac > 0.0:
+        out[:, whole:] += frac * energy[:, :-whole]
+    return np.asarray(out / pulse_bins)
 
 
-def spread_across_beams(energy: F64, width_beams: float, sidelobe_db: float) -> F64:
-    """Beam-major (beams, bins): each beam's energy received by its neighbours (gaussian main lobe,
-    -3 dB at ``width_beams / 2`` beam spacings) and by every other beam of the fan at ``sidelobe_db``."""
-    side = 10.0 ** (sidelobe_db / 10.0)
-    near = math.exp(-4.0 * math.log(2.0) / (width_beams * width_beams))  # one beam spacing off
-    local = energy.copy()
-    local[1:] += energy[:-1]
-    local[:-1] += energy[1:]
-    out = energy + near * (local - energy) + side * (energy.sum(axis=0) - local)
-    return np.asarray(out)
+def beam_mixing(n_beams: int, width_beams: float, sidelobe_db: float) -> F64:
+    """(n_beams, n_beams) two-way azimuth response: row ``i`` = how beam ``i`` receives a return on
+    each beam's axis. Main lobe gaussian, -3 dB at ``width_beams / 2`` beam spacings; sidelobes from
+    two beams off at ``sidelobe_db``, falling as ``(2 / k)^2`` with the offset ``k`` (the 1/x^2
+    envelope of a uniformly weighted aperture's sinc^2), whichever is higher."""
+    k = np.abs(np.arange(n_beams)[:, None] - np.arange(n_beams)[None, :]).astype(float)
+    main = np.exp(-4.0 * math.log(2.0) * (k / width_beams) ** 2)
+    side = 10.0 ** (sidelobe_db / 10.0) * (2.0 / np.maximum(k, 2.0)) ** 2
+    return np.where(k >= 2.0, np.maximum(main, side), main)
+
+
+def spread_across_beams(energy: F64, mixing: F64) -> F64:
+    """Beam-major (beams, bins): every beam's received energy through the azimuth response ``mixing``.
+
+    In blocks of bins small enough that OpenBLAS multiplies each on one thread (below its
+    ``65536 * 4`` multiply-add threshold): threads cost more than they give at this size, far more on
+    a loaded machine."""
+    nb = mixing.shape[0]
+    step = max(1, SINGLE_THREAD_GEMM // (nb * nb))
+    out = np.empty_like(energy)
+    for a in range(0, energy.shape[1], step):
+        np.matmul(mixing, energy[:, a:a + step], out=out[:, a:a + step])
+    return out
 
 
 def tapered_pattern(shape: str, width: float, phi: F64, extent: float) -> F64:
@@ -141,10 +158,11 @@ class AcousticImager:
         self.r_mid = g.window_start + g.n_bins * g.bin_width / 2.0
         r = g.range_of_bin
         tvg_gain_db = 30.0 * np.log10(r / self.r_mid) + 2.0 * params.absorption_db_per_m * (r - self.r_mid)
-        self.noise = 10.0 ** ((params.noise_floor_db + tvg_gain_db) / 10.0)
+        self.noise = np.asarray(10.0 ** ((params.noise_floor_db + tvg_gain_db) / 10.0), np.float32)
         draw = np.random.default_rng(np.random.SeedSequence([seed, ACOUSTIC_STREAM]))
         self.gain_db = params.gain_db + params.gain_jitter_db * (2.0 * draw.random() - 1.0)
         self.table = speckle_table(params.speckle_looks, params.texture_shape)
+        self.mixing = beam_mixing(g.n_beams, params.azimuth_width_beams, params.sidelobe_db)
 
     def sample_energy(self, rng_: F64, cos2: F64, diffuse: F64, is_object: NDArray[np.bool_]) -> F64:
         """Energy of every sample (step 1): ranges (m), cos^2 of incidence, diffuse strength (linear)."""
@@ -196,24 +214,27 @@ class AcousticImager:
         e = self.sample_energy(rng_, cos2, diffuse, surface >= 0)
         img = self.integrate(rng_, e, surface)
         img = spread_in_range(img, self.p.pulse_m / self.g.bin_width)
-        return spread_across_beams(img, self.p.azimuth_width_beams, self.p.sidelobe_db)
+        return spread_across_beams(img, self.mixing)
 
     def display(self, energy: F64, rng: np.random.Generator | None) -> U8:
         """Speckle, noise, interference and gain (step 4) of beam-major energies; the 8-bit log display
         as the image ``[range bin, beam]``."""
         p = self.p
+        energy32 = energy.astype(np.float32)
         if rng is None:
-            power = energy + self.noise
+            power = energy32 + self.noise
         else:
             size = energy.size
             raw = rng.bit_generator.random_raw((size + 1) // 2).astype("<u8", copy=False).view("<u2")
-            power = energy * np.take(self.table, raw[:size]).reshape(energy.shape)
+            power = energy32 * np.take(self.table, raw[:size]).reshape(energy.shape)
             power += self.noise * np.take(EXP_TABLE, raw[size:2 * size]).reshape(energy.shape)
             hit, row, width = rng.random(), rng.integers(self.g.n_bins), rng.integers(1, MAX_BAND_BINS + 1)
-            level = 10.0 ** (p.interference_db / 10.0) * (0.5 + rng.random(self.g.n_beams))
+            level = 10.0 ** (p.interference_db / 10.0) * (0.5 + rng.random(self.g.n_beams, np.float32))
             if hit < p.interference_fraction:
                 power[:, row:row + width] += level[:, None]
-        scale = 10.0 * 256.0 / p.display_range_db
+        scale = np.float32(10.0 * 256.0 / p.display_range_db)
         with np.errstate(divide="ignore"):
-            q = (np.log10(power) + (self.gain_db - p.display_floor_db) / 10.0) * scale
-        return np.ascontiguousarray(np.clip(np.floor(q), 0.0, 255.0).astype(np.uint8).T)
+            q = np.log10(power)
+        q += np.float32((self.gain_db - p.display_floor_db) / 10.0)
+        q *= scale
+        return np.ascontiguousarray(np.clip(q, 0.0, 255.0).astype(np.uint8).T)

@@ -12,7 +12,8 @@ overrides. The realistic profiles (``didson``, ``aris1800``, ``aris3000``) are r
   ``vertical_extent`` (elevations integrated, in multiples of that width: the energy beyond the edge);
   ``elevation_samples`` per beam over that extent (the image integrates between them: no comb).
 - azimuth beam pattern: ``azimuth_width_beams`` (two-way -3 dB width in beam spacings),
-  ``sidelobe_db`` (two-way sidelobe plateau relative to the main lobe, spread across the whole fan).
+  ``sidelobe_db`` (two-way sidelobe level two beams off the main lobe; the envelope falls as ``1/k^2``
+  with the offset ``k`` in beams, across the whole fan).
 - ``pulse_m``: the transmitted pulse's range extent ``c tau / 2`` (m); an echo smears over
   ``[r, r + pulse_m]``.
 - backscatter: ``seabed_backscatter_db`` (Lambert's ``mu``: ``sigma = mu sin^2(grazing)``),
