@@ -45,7 +45,7 @@ from auvlink.validation import CONFIG, Integer, Number
 
 ProfileName = Literal["ideal", "didson", "aris1800", "aris3000"]
 PatternShape = Literal["uniform", "gaussian", "sinc2"]
-PROFILES: tuple[str, ...] = ("ideal", "didson", "aris1800", "aris3000")
+PROFILES: tuple[ProfileName, ...] = ("ideal", "didson", "aris1800", "aris3000")
 
 
 @dataclass(frozen=True)
