@@ -191,3 +191,37 @@ def test_truth_at_nan_inf_and_1e308_still_gives_every_output_and_a_report_line(
     assert summary["scores"]["truth_skipped"] == 5 and summary["scores"]["truth_objects"] == 1
     assert summary["scores"]["matched"] == 1  # the one usable object is still scored
     assert 'id="truth-skipped">5 ground-truth entries' in (out / "report.html").read_text()
+
+
+def _strict(text: str) -> Any:
+    def refuse(token: str) -> None:
+        raise AssertionError(f"{token} in a strict JSON output")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_non_finite_values_are_null_in_every_json_output(tmp_path: Path) -> None:
+    import numpy as np
+
+    from auvlink.pipeline.outputs import write_outputs
+    from auvlink.pipeline.report import write_report
+    from auvlink.pipeline.results import Detection, MissionResult
+    from auvlink.pipeline.setup import MissionSetup
+
+    pts = np.array([[16.0, 0.3, 19.5], [16.5, 0.4, 19.6], [16.2, 0.9, 19.4]])
+    det = Detection(0, "pipe", math.nan, (16.2, 0.5, 19.5), (0.5, 0.6, math.inf), 3, 1.7e9, 1.7e9 + 2, pts,
+                    frame="site", latitude=27.6, longitude=123.9, drift_correction_ne=(math.nan, 0.0))
+    truth = truth_objects({"objects": [{"class": "pipe", "position_ned": [16.0, 0.3, 20.0]},
+                                       {"class": "box", "position_ned": [math.nan, 0.0, 20.0]}]})
+    setup = MissionSetup(truth=truth.objects, truth_skipped=truth.skipped, truth_problem=truth.problem)
+    result = MissionResult(log=tmp_path / "x.mcap", setup=setup, detections=[det], track=np.zeros((0, 3)),
+                           georef={"georeferenced": True, "datum": {"latitude": 27.6, "longitude": 123.9}})
+    out = tmp_path / "out"
+    summary = write_outputs(result, out)
+    write_report(result, summary, out)
+    geo = _strict((out / "detections.geojson").read_text())
+    props = geo["features"][0]["properties"]
+    assert props["score"] is None and props["size"][2] is None and props["drift_correction_ne"][0] is None
+    assert _strict((out / "summary.json").read_text())["scores"]["truth_skipped"] == 1
+    assert _strict((out / "detections.jsonl").read_text())["score"] is None
+    assert 'id="truth-skipped">1 ground-truth entries' in (out / "report.html").read_text()
