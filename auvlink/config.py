@@ -33,8 +33,8 @@ The same model validates the configuration a mission log stores (:func:`config_f
     dbc = "auvlink_nav.dbc"           # DBC file: relative to the config file, absolute, or shipped in auvlink/data
 
 A GNSS receiver is a device with ``format = "nmea"``; its ``mounting.xyz`` is the antenna's lever arm.
-``[site]`` is the WGS84 datum of the local NED frame; without one the first accepted GNSS fix becomes
-the datum (docs/GEO.md).
+``[site]`` is the WGS84 datum of the local NED frame; without one the mean of the first GNSS fixes that
+agree becomes the datum, never a single fix (docs/GEO.md).
 """
 
 from __future__ import annotations

@@ -82,7 +82,8 @@ def drift_bound_m(distance_m: float, duration_s: float, cfg: AnchorConfig) -> fl
 
 
 def robust_mean(r: F64, cfg: AnchorConfig) -> tuple[F64 | None, NDArray[np.bool_]]:
-    """Mean of the rows of ``r`` (n, 2) within the gate of their median, and the inlier mask (None: too few)."""
+    """Mean of the rows of ``r`` (n, 2) (or (n, 3)) within the gate of their median (m), and the inlier mask
+    (None: fewer than ``min_fixes`` inliers)."""
     if r.shape[0] == 0:
         return None, np.zeros(0, bool)
     med = np.median(r, axis=0)

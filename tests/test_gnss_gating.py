@@ -17,13 +17,17 @@ from pathlib import Path
 import numpy as np
 import pynmea2
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from small_mission import SCENE
 
 from auvlink.cli import main
 from auvlink.codecs import nmea
+from auvlink.pipeline.georef import DATUM_FIXES, Georef, GnssPayload
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import loads_scene
 from logs_format import MissionLogReader, MissionLogWriter
+from recon.nav_stream import CausalNavigator
 
 GNSS_SCENE = SCENE + "[gnss]\nrate_hz = 2.0\nwait_before_s = 8.0\nwait_after_s = 6.0\nvertical_rate = 0.8\n"
 DEG_10_KM = 10_000.0 / 111_000.0  # 10 km of latitude, deg (about 111 km per degree)
@@ -129,6 +133,46 @@ def test_decode_marks_latitude_91_5_as_implausible(tmp_path: Path, capsys: pytes
     assert [r["has_fix"] for r in recs] == [False, False, True], recs
     assert "latitude 91.5" in recs[0]["implausible"] and "HDOP -5" in recs[1]["implausible"]
     assert recs[2]["implausible"] is None
+
+
+# ---------------------------------------------------------------------------- the datum, any values
+fixes = st.builds(GnssPayload, st.floats(allow_nan=True, allow_infinity=True),
+                  st.floats(allow_nan=True, allow_infinity=True), st.floats(-1e3, 1e3), st.integers(-3, 12),
+                  st.floats(allow_nan=True, allow_infinity=True))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(fixes, max_size=12))
+def test_no_fix_stream_raises_or_makes_a_datum_alone(stream: list[GnssPayload]) -> None:
+    """Any values (out of range, NaN, inf, any quality, any HDOP), no [site], a navigator without samples:
+    nothing raises; a datum only from DATUM_FIXES usable fixes, and a plausible one."""
+    geo = Georef(None, has_gnss=True)
+    for k, fix in enumerate(stream):
+        geo.on_fix(float(k), fix, CausalNavigator())
+    usable = [f for f in stream if f.quality in (1, 2, 4, 5) and abs(f.latitude) <= 90 and abs(f.longitude) <= 180
+              and not (np.isfinite(f.hdop) and f.hdop <= 0) and not np.isinf(f.hdop)]
+    if geo.datum is not None:
+        assert len(usable) >= DATUM_FIXES
+        assert -90 <= geo.datum.latitude <= 90 and -180 <= geo.datum.longitude <= 180
+    assert geo.summary()["fixes"]["received"] == len(stream) - len(geo._pending)
+
+
+def test_datum_across_the_antimeridian_is_where_the_fixes_are() -> None:
+    geo = Georef(None, has_gnss=True)
+    for k, lon in enumerate((179.99995, -179.99995, 179.99990, -179.99990, 180.0, 179.99998)):
+        geo.on_fix(float(k), GnssPayload(-16.5, lon, 0.0, 2, 0.8), CausalNavigator())
+    assert geo.datum is not None and abs(abs(geo.datum.longitude) - 180.0) < 1e-4
+    assert abs(geo.datum.latitude + 16.5) < 1e-6
+
+
+def test_one_fix_is_never_the_datum() -> None:
+    geo = Georef(None, has_gnss=True)
+    nav = CausalNavigator()
+    for k in range(DATUM_FIXES - 1):
+        geo.on_fix(float(k), GnssPayload(36.0412, 129.3915, 0.0, 2, 0.8), nav)
+    assert geo.datum is None  # 4 agreeing fixes: still none
+    geo.on_fix(9.0, GnssPayload(36.0412, 129.3915, 0.0, 2, 0.8), nav)
+    assert geo.datum is not None and "first 5" in str(geo.datum_source)
 
 
 # ---------------------------------------------------------------------------- whole runs

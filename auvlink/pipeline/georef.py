@@ -121,16 +121,17 @@ class Georef:
         pend = self._pending
         if len(pend) < DATUM_FIXES:
             return
-        lat = np.array([x.fix.latitude for x in pend])
-        lon = np.array([x.fix.longitude for x in pend])
-        ref = Datum(float(np.median(lat)), float(np.median(lon)))
-        off, inl = robust_mean(ref.to_ned(lat, lon)[:, :2], self.anchor.config)
+        # in the topocentric frame of the oldest fix (a rigid transform of ECEF: no trouble at the poles or
+        # across the antimeridian), on the ellipsoid; the gate and the mean are 3D
+        ref = Datum(pend[0].fix.latitude, pend[0].fix.longitude)
+        ned = ref.to_ned([x.fix.latitude for x in pend], [x.fix.longitude for x in pend])
+        off, inl = robust_mean(ned, self.anchor.config)
         if off is None or int(inl.sum()) < DATUM_FIXES:
             if len(pend) > DATUM_WINDOW:
                 self.anchor.reject("outliers")
                 del pend[0]
             return
-        la, lo, _ = ref.to_geodetic([float(off[0]), float(off[1]), 0.0])
+        la, lo, _ = ref.to_geodetic(off)
         self.datum = Datum(round(float(la[0]), 7), round(float(lo[0]), 7), 0.0)
         self.datum_source = (f"the mean of the first {DATUM_FIXES} GNSS fixes that agree (the configuration "
                              "has no [site])")
