@@ -16,6 +16,11 @@ Skipping what a frame does not need (``cull``):
 - ``"objects"``: one raycasting scene per object; each in-view object gets only its own rays.
 - ``"none"``: every ray is cast against every object (reference; same image bytes).
 
+Acoustic profile: the scene's ``[acoustics]`` table (:mod:`auvlink.sim.acoustics`). Without it, or
+with ``profile = "ideal"``, the model above. A realistic profile samples ``elevation_samples`` rays
+per beam over its vertical extent (:func:`sampled_aperture`) and forms the image with
+:class:`~auvlink.sim.acoustic_image.AcousticImager` (:meth:`SonarRenderer.realistic`).
+
 Randomness: all draws go through the ``numpy.random.Generator`` passed in; :func:`frame_rng`
 derives one per frame from the run's seed, so a frame renders the same bytes in any order.
 """
