@@ -12,6 +12,8 @@ from in ``clutter_threshold_source``),
 ``members`` (optional: the state dicts of
 further models of the same config, trained from other seeds; inference averages their probabilities with the
 first's, :class:`classify.ensemble.Ensemble`).
+Every key is checked on load before a network is built (:mod:`classify.checkpoint_meta`: names, sizes,
+thresholds in range, no NaN anywhere).
 """
 
 from __future__ import annotations
@@ -24,10 +26,9 @@ from typing import Any
 import torch
 
 from auvlink.atomic import atomic_path
+from classify.checkpoint_meta import FORMAT, CheckpointMeta, check_checkpoint, network_config
 from classify.errors import CheckpointError
-from classify.pointnet import PointNet, PointNetConfig
-
-FORMAT = "auvlink.classify.pointnet/1"
+from classify.pointnet import PointNet
 
 
 @dataclass
@@ -68,6 +69,7 @@ def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_p
            "metrics": _plain(metrics or {}), "calibration": _plain(calibration or {})}
     if members:
         doc["members"] = [_state(m) for m in members]
+    check_checkpoint(doc, path)  # what load_checkpoint would refuse is never written
     with atomic_path(path) as tmp:  # renamed when whole: an interrupted save never leaves half a checkpoint
         torch.save(doc, tmp)
     return path
@@ -77,24 +79,36 @@ def _state(model: PointNet) -> dict[str, torch.Tensor]:
     return {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
 
 
-def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> Checkpoint:
+def _one_line(exc: BaseException, limit: int = 300) -> str:
+    text = " ".join(str(exc).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def read_checkpoint(path: Path, device: torch.device | str = "cpu") -> tuple[dict[str, Any], CheckpointMeta]:
+    """The checkpoint dict at ``path``, read with ``weights_only=True`` (no pickled code runs) and checked whole
+    (:func:`classify.checkpoint_meta.check_checkpoint`: every field, the weights' values); builds no network.
+    :class:`CheckpointError` naming the field otherwise."""
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"no checkpoint at {path}")
     try:
         d = torch.load(path, map_location=device, weights_only=True)
     except Exception as exc:  # torch raises many types for a bad file
-        raise CheckpointError(f"{path}: not a readable checkpoint: {exc}") from exc
-    if not isinstance(d, dict) or d.get("format") != FORMAT:
-        raise CheckpointError(f"{path}: not an auvlink PointNet checkpoint (format {FORMAT!r} expected)")
+        raise CheckpointError(f"{path}: not a readable checkpoint: {_one_line(exc)}") from exc
+    return d, check_checkpoint(d, path)
+
+
+def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> Checkpoint:
+    """The checkpoint at ``path`` (:func:`read_checkpoint`), its networks built once it is checked."""
+    d, meta = read_checkpoint(path, device)
+    cfg = network_config(meta)
     models = []
     try:
-        cfg = PointNetConfig.from_dict(d["model_config"])
-        for state in [d["state_dict"], *d.get("members", [])]:
+        for state in [meta.state_dict, *meta.members]:
             model = PointNet(cfg)
             model.load_state_dict(state)
             models.append(model.to(device).eval())
     except (KeyError, RuntimeError, TypeError) as exc:
-        raise CheckpointError(f"{path}: weights do not match the stored model config: {exc}") from exc
-    return Checkpoint(models[0], tuple(d["class_names"]), int(d["n_points"]), d.get("synthesis", {}),
+        raise CheckpointError(f"{path}: weights do not match the stored model config: {_one_line(exc)}") from exc
+    return Checkpoint(models[0], tuple(meta.class_names), meta.n_points, d.get("synthesis", {}),
                       d.get("train", {}), d.get("metrics", {}), d.get("calibration", {}), models[1:])

@@ -102,7 +102,8 @@ class Classifier:
                                            ).to(self.device).fused().eval()
         #: index of ``clutter`` among the outputs (None: a model without it)
         self.clutter_index = self.class_names.index(CLUTTER) if CLUTTER in self.class_names else None
-        self.clutter_threshold = float(ckpt.calibration.get("clutter_threshold", DEFAULT_CLUTTER_THRESHOLD))
+        threshold = ckpt.calibration.get("clutter_threshold")  # a probability in [0, 1] (checked on load)
+        self.clutter_threshold = DEFAULT_CLUTTER_THRESHOLD if threshold is None else float(threshold)
 
     @classmethod
     def load(cls, path: Path | str | None = None, device: torch.device | None = None,

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ import numpy as np
 
 from auvlink import formats
 from auvlink.jsonutil import to_jsonable
+from auvlink.safe_names import UniqueNames
 from logs_format.fan import FanGrid, fan_grid, save_fan_png, sonar_geometry
 from logs_format.replay import Replay
 
@@ -71,10 +71,6 @@ def record_columns(record: Any, fmt: str) -> dict[str, Any]:
     return flatten(data)
 
 
-def _safe(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "channel"
-
-
 class _Csv:
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -109,11 +105,12 @@ def export_log(
     tables: dict[str, _Csv] = {}
     grids: dict[str, tuple[bytes, FanGrid]] = {}
     seen: dict[str, int] = {}
+    names = UniqueNames(fallback="channel")  # devices whose names clean alike get files of their own
     try:
         with Replay(path, channels=channels) as rep:
             for sample in rep.samples():
-                name = _safe(sample.device)
                 geometry = sonar_geometry(sample.record)
+                name = names.name_for(sample.device, ".csv" if geometry is None else "")
                 base = {"t_host_s": sample.t_host_ns * 1e-9,
                         "t_sensor_s": "" if sample.t_sensor is None else sample.t_sensor}
                 if geometry is None:

@@ -29,6 +29,7 @@ from auvlink.atomic import check_writable_folder, write_text
 from auvlink.errors import AuvlinkError, OutputError
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.batch_mission import MissionTask, Outcome, run_mission, sha256_file
+from auvlink.safe_names import UniqueNames, path_inside, safe_name
 from auvlink.version import __version__
 
 RUN_FILE = "batch.json"
@@ -62,16 +63,17 @@ def discover_logs(inputs: Iterable[Path]) -> list[Path]:
 
 def mission_names(logs: Sequence[Path]) -> list[str]:
     """One folder name per log: its file name without ``.mcap``; logs of the same name get their parent
-    folder's name in front (``2025-mission``), then a number, so names stay stable across runs."""
-    stems = Counter(p.stem for p in logs)
-    names: list[str] = []
+    folder's name in front (``2025-mission``), then a number, so names stay stable across runs. Names are
+    made safe (:func:`auvlink.safe_names.safe_name`: ``..mcap`` gives ``mission``, never a way out of
+    ``DIR``) and never those of the batch's own files."""
+    stems = Counter(safe_name(p.stem, "mission") for p in logs)
+    names = UniqueNames(reserved=(RUN_FILE, "catalogue.geojson", "catalogue.csv"), fallback="mission")
+    out: list[str] = []
     for p in logs:
-        name = p.stem if stems[p.stem] == 1 else f"{p.absolute().parent.name}-{p.stem}"
-        base, k = name, 2
-        while name in names:
-            name, k = f"{base}-{k}", k + 1
-        names.append(name)
-    return names
+        stem = safe_name(p.stem, "mission")
+        name = stem if stems[stem] == 1 else f"{safe_name(p.absolute().parent.name, 'mission')}-{stem}"
+        out.append(names.name_for(name, fresh=True))
+    return out
 
 
 def default_model() -> Path:
@@ -81,10 +83,15 @@ def default_model() -> Path:
 
 def settings_of(model: Path | None, classify: bool, report: bool, config: Path | None) -> dict[str, Any]:
     """The settings part of a mission's fingerprint: the package version, the model checkpoint's SHA-256
-    (when classifying), the ``--config`` file's SHA-256, and the switches."""
+    (when classifying; a ``--model`` is read and checked first, :func:`classify.checkpoint.read_checkpoint`),
+    the ``--config`` file's SHA-256, and the switches."""
     m = model if model is not None else default_model()
     if classify and not m.is_file():
         raise AuvlinkError(f"--model {m}: no such checkpoint")
+    if classify and model is not None:  # checked once here (every field), not failed by each mission
+        from classify.checkpoint import read_checkpoint
+
+        read_checkpoint(model)
     if config is not None and not config.is_file():
         raise AuvlinkError(f"--config {config}: no such file")
     return {"auvlink": __version__, "classify": classify, "report": report,
@@ -132,7 +139,8 @@ class BatchRun:
 def make_tasks(logs: Sequence[Path], out: Path, *, model: Path | None, classify: bool, report: bool,
                config: Path | None, force: bool) -> list[MissionTask]:
     settings = settings_of(model, classify, report, config)
-    return [MissionTask(mission=name, log=str(log.absolute()), out=str((out / name).absolute()), settings=settings,
+    return [MissionTask(mission=name, log=str(log.absolute()), out=str(path_inside(out, name).absolute()),
+                        settings=settings,
                         model=str(model.absolute()) if model is not None else None,
                         config=str(config.absolute()) if config is not None else None,
                         classify=classify, report=report, force=force)

@@ -32,6 +32,7 @@ from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.results_mcap import write_results_mcap
 from auvlink.pipeline.scoring import score_detections
+from auvlink.safe_names import path_inside, safe_name
 from recon.ply import NED_COMMENT, write_ply
 
 #: ``--ply-frame`` choices: the world frame NED (the default) or ENU-like z-up
@@ -40,7 +41,9 @@ ZUP_COMMENT = "auvlink recon, z-up frame: x east, y north, z up (m), origin of t
 
 
 def object_ply_name(det: Detection) -> str:
-    return f"objects/object_{det.id:03d}_{det.class_name}.ply"
+    """``objects/object_<id>_<class>.ply``, the class name made a safe file-name component
+    (:func:`auvlink.safe_names.safe_name`: a checkpoint's class names are data); the id keeps it unique."""
+    return f"objects/object_{det.id:03d}_{safe_name(det.class_name, 'unknown')}.ply"
 
 
 def check_ply_frame(frame: str) -> str:
@@ -81,7 +84,7 @@ class DetectionStream:
             return
         name = object_ply_name(det)
         try:
-            write_points_ply(self.out_dir / name, [det], self.ply_frame)
+            write_points_ply(path_inside(self.out_dir, name), [det], self.ply_frame)
             with open(self.path, "a") as f:
                 f.write(json.dumps(to_jsonable(det.to_json(name)), allow_nan=False) + "\n")
                 f.flush()
@@ -93,8 +96,9 @@ class DetectionStream:
 
 def _write(out_dir: Path, name: str, write: Callable[[Path], Any], unwritten: list[str] | None) -> None:
     """Write ``out_dir/name`` atomically; with ``unwritten`` a failure is listed there instead of raised."""
+    target = path_inside(out_dir, name)  # OutputError (never listed as unwritten): a name that leaves out_dir
     try:
-        with atomic_path(out_dir / name) as tmp:
+        with atomic_path(target) as tmp:
             write(tmp)
     except OSError as exc:
         if unwritten is None:
