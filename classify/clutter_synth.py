@@ -94,7 +94,7 @@ def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
             model = memory.fit(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
             if model is None:
                 continue
-            keep = object_points(p, model, cfg.seabed, cfg.min_object_height, cfg.flank_radius)
+            keep = object_points(p, model, cfg.seabed)
             if keep.any():
                 kept.append((p[keep], ln.times[sel][keep], ln.arcs[sel][keep], j))
     if not kept:
@@ -115,7 +115,7 @@ def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
         hi = np.max([o.points[:, :2].max(axis=0) for o in objs], axis=0)
         model = memory.fit(lo, hi)
         rejected: dict[str, int] = {}
-        for o in on_seabed(objs, model, cfg.max_object_extent, cfg.min_object_height, rejected):
+        for o in on_seabed(objs, model, rejected):
             key = (o.n_points, round(float(o.centroid[0]), 6), round(float(o.centroid[1]), 6))
             if key not in seen:
                 seen.add(key)

@@ -49,6 +49,7 @@ import numpy.typing as npt
 
 from classify.synthesis_settings import SynthesisSettings
 from recon.front_slope import replace_on_arcs
+from recon.range_arcs import arc_record
 
 F64 = npt.NDArray[np.float64]
 HALF_FOV_DEG = 14.5
@@ -210,7 +211,7 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
         return np.asarray(pts[keep])
     u, w_vec = arc_vectors(heading_rad, tilt_rad)
     pi, bi, r = pi[keep], bi[keep], r[keep]
-    arcs = np.column_stack([origins[pi], u[bi], np.broadcast_to(w_vec, (len(pi), 3)), r])
+    arcs = arc_record(origins[pi], u[bi], np.broadcast_to(w_vec, (len(pi), 3)), r)
     fixed = replace_on_arcs(pts[keep], arcs, spread, settings.correction_length_m, settings.correction_width_m)
     blend = float(rng.uniform(*settings.correction_blend))  # recon's correction is partial on real frames
     return np.asarray(pts[keep] + blend * (fixed - pts[keep]), dtype=np.float64)

@@ -26,6 +26,8 @@ from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
 from classify.scan_synth import HALF_FOV_DEG, arc_vectors, energy_first_return, sonar_rays
 from classify.synthesis_settings import SynthesisSettings
+from recon.range_arcs import RangeArcs, arc_record
+from recon.seabed_memory import PLANE_BEAM_STEP, PLANE_FRAME_STEP, TEXTURE_BEAM_STEP
 
 F64 = npt.NDArray[np.float64]
 _CHUNK = 64  # positions per energy evaluation
@@ -47,7 +49,7 @@ class LineReturns:
     """What one line gives recon, world NED m: highlight points (with their arcs and times), seabed samples."""
 
     points: F64  # (n, 3) highlight-extension points on the steepest ray
-    arcs: F64  # (n, 10) their range arcs (origin, u, w, range), as recon.front_slope.arc_columns
+    arcs: F64  # (n, 10) their range arcs (origin, u, w, range), as recon.range_arcs.arc_columns
     times: F64  # (n,) s
     frame: npt.NDArray[np.int64]  # (n,) position index along the line
     dvl: F64  # (P, 3) the DVL's bottom point under the vehicle, one per frame (texture grid and planes)
@@ -58,7 +60,7 @@ class LineReturns:
 
     def shift(self, offset: F64) -> None:
         """Move everything by ``offset`` (3,) m: the line's navigation error."""
-        for a in (self.points, self.arcs[:, :3], self.dvl, self.texture, self.sparse):
+        for a in (self.points, RangeArcs.of(self.arcs).origin, self.dvl, self.texture, self.sparse):
             a += offset
 
 
@@ -116,14 +118,14 @@ def line_returns(seabed: SeabedSurface, origins: F64, heading: float, tilt: floa
     r = first[pi, bi] + rng.normal(0.0, settings.range_sigma_m, size=pi.size)
     pts = origins[pi] + r[:, None] * steep[bi]
     u, w = arc_vectors(heading, tilt)
-    arcs = np.column_stack([origins[pi], u[bi], np.broadcast_to(w, (pi.size, 3)), r])
-    # seabed returns (recon: every frame, every 2nd beam for the texture grid; every 5th frame, every 4th
-    # beam for the tiled planes) and the DVL's bottom points under the vehicle
+    arcs = arc_record(origins[pi], u[bi], np.broadcast_to(w, (pi.size, 3)), r)
+    # seabed returns (as recon: every frame, every TEXTURE_BEAM_STEP-th beam for the texture grid; every
+    # PLANE_FRAME_STEP-th frame, every PLANE_BEAM_STEP-th beam for the tiled planes) and the DVL's bottom points
     sp, sb = np.nonzero(np.isfinite(in_band))
     rs = in_band[sp, sb] + bias + rng.normal(0.0, settings.range_sigma_m, size=sp.size)
     sea = origins[sp] + rs[:, None] * steep[sb]
-    tex = sb % 2 == 0
-    sparse = (sb % 4 == 0) & (sp % 5 == 0)
+    tex = sb % TEXTURE_BEAM_STEP == 0
+    sparse = (sb % PLANE_BEAM_STEP == 0) & (sp % PLANE_FRAME_STEP == 0)
     dvl = np.column_stack([origins[:, :2], seabed.depth(origins[:, 0], origins[:, 1])])
     times = np.asarray(t0 + dt * pi, dtype=np.float64)
     return LineReturns(pts, arcs, times, pi, dvl, sea[tex], sea[sparse], sp[tex], sp[sparse])

@@ -7,7 +7,7 @@ to be detected; the cloud ends 0.5-0.7 m short of the far edge. So the robust bo
 hemisphere, box, pipe and half pipe of the simulator's 7-object scenes (true navigation, arc front slope).
 
 Correction (:func:`far_side_centre`), from the object's own points and their range arcs
-(:func:`recon.front_slope.arc_columns`: the sonar origin of every point and the beam's horizontal look
+(:func:`recon.range_arcs.arc_columns`: the sonar origin of every point and the beam's horizontal look
 direction ``u``); no class is needed, recon runs before classification:
 
 1. Look direction ``m``: the mean of the points' unit horizontal look vectors, length ``R`` <= 1 (an
@@ -47,6 +47,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from recon.range_arcs import RangeArcs, is_arc_record
 
 F64 = NDArray[np.float64]
 
@@ -93,11 +95,12 @@ def far_side_centre(centre: F64, points: F64, arcs: F64, config: FarSideConfig |
     c = np.asarray(centre, dtype=np.float64).copy()
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     a = np.asarray(arcs, dtype=np.float64)
-    if not cfg.enabled or p.shape[0] < 2 or a.shape != (p.shape[0], 10):
+    if not cfg.enabled or p.shape[0] < 2 or not is_arc_record(a, p.shape[0]):
         return c
     order = np.lexsort(np.column_stack([p, a]).T[::-1])  # the same answer, to the bit, in any point order
     p, a = p[order], a[order]
-    u = a[:, 3:5] / np.maximum(np.linalg.norm(a[:, 3:5], axis=1, keepdims=True), 1e-12)
+    look = RangeArcs.of(a).u[:, :2]  # the beam's horizontal look direction
+    u = look / np.maximum(np.linalg.norm(look, axis=1, keepdims=True), 1e-12)
     mean_look = u.mean(axis=0)
     r = float(np.linalg.norm(mean_look))
     if r < 1e-9:
@@ -112,7 +115,7 @@ def far_side_centre(centre: F64, points: F64, arcs: F64, config: FarSideConfig |
     if hidden == 0.0:
         return c
     sub = np.arange(0, p.shape[0], max(1, -(-p.shape[0] // cfg.max_points)))  # an even subsample
-    shadowed = self_shadowed(p[sub], a[sub, 0:3], cfg.width, cfg.gap, cfg.dz)
+    shadowed = self_shadowed(p[sub], RangeArcs.of(a[sub]).origin, cfg.width, cfg.gap, cfg.dz)
     if shadowed >= cfg.open_min and shadowed > cfg.open_fraction * sub.size:
         return c
     c[:2] += 0.5 * hidden * mean_look

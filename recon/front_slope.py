@@ -18,7 +18,7 @@ below its steepest-ray position or above the highest point seen there, points al
 stay, and since placed points are never higher than their source, the top is not overestimated.
 Applied per object once the object is final (its top is known only when the vehicle has passed
 it), so batch and streaming give the same points. Each point carries its ray as 10 columns
-(:func:`arc_columns`: sonar origin, the arc's unit vectors u and w in W, range); the arcs are those of
+(:mod:`recon.range_arcs`: sonar origin, the arc's unit vectors u and w in W, range); the arcs are those of
 the exact beam geometry, whatever the placement mode.
 """
 
@@ -27,32 +27,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
-from recon.sonar_geometry import SonarGeometry
+from recon.range_arcs import ARC_COLUMNS, RangeArcs, arc_columns, steepest_points
+
+__all__ = ["ARC_COLUMNS", "arc_columns", "replace_on_arcs", "steepest_points"]
 
 F64 = NDArray[np.float64]
-ARC_COLUMNS = 10  # origin (3), u (3), w (3), range (1)
-
-
-def arc_columns(geometry: SonarGeometry, frame: NDArray[np.int64], beam: NDArray[np.int64],
-                row: NDArray[np.int64], positions: F64, rotations: Rotation) -> F64:
-    """Per return, its range arc in W: sonar origin o, unit vectors u = R_WS [cos th, sin th, 0] and
-    w = R_WS [0, 0, 1], range r; the arc is o + r (cos phi u + sin phi w), |phi| <= s/2."""
-    m_wb = rotations.as_matrix().reshape(-1, 3, 3)[frame]
-    m_ws = m_wb @ geometry.mounting.rotation.as_matrix()
-    o = np.asarray(positions, dtype=np.float64).reshape(-1, 3)[frame] + m_wb @ geometry.mounting.lever
-    th = geometry.azimuths[beam]
-    u = m_ws[:, :, 0] * np.cos(th)[:, None] + m_ws[:, :, 1] * np.sin(th)[:, None]
-    return np.column_stack([o, u, m_ws[:, :, 2], geometry.ranges[row]])
-
-
-def steepest_points(arcs: F64, spread: float) -> F64:
-    """The uncorrected (steepest-ray, exact geometry) points of ``arcs`` (N, 10): e.g. the cloud a
-    classifier trained on uncorrected highlight-extension clouds expects (``DetectedObject.extra``)."""
-    a = np.asarray(arcs, dtype=np.float64).reshape(-1, ARC_COLUMNS)
-    h = 0.5 * spread
-    return np.asarray(a[:, :3] + a[:, 9:10] * (np.cos(h) * a[:, 3:6] + np.sin(h) * a[:, 6:9]), dtype=np.float64)
 
 
 def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, width: float = 0.25,
@@ -66,7 +46,7 @@ def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, 
     n = p.shape[0]
     if n == 0 or arcs.shape != (n, ARC_COLUMNS):
         return p.copy()
-    o, u, w, r = arcs[:, 0:3], arcs[:, 3:6], arcs[:, 6:9], arcs[:, 9]
+    o, u, w, r = RangeArcs.of(arcs)
     look = u[:, :2] / np.maximum(np.linalg.norm(u[:, :2], axis=1, keepdims=True), 1e-12)
     top = p[:, 2].copy()  # NED: the top is the smallest depth
     tree = cKDTree(p[:, :2])

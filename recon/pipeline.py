@@ -4,7 +4,7 @@
 :class:`recon.trajectory.Trajectory` or anything with ``pose_at`` and ``altitude_at``). Per frame:
 pose interpolated at the frame time, expected seabed onset per beam (flat seabed at the DVL
 altitude, or the seabed fitted so far), highlight-extension points (:mod:`recon.highlight`) and,
-every ``seabed_every``-th frame, the seabed returns at the onset. Points wait in a pending buffer
+the seabed returns at the onset (:mod:`recon.seabed_memory`). Points wait in a pending buffer
 with the range arc they came from; :meth:`poll` (streaming) or :meth:`finish` (batch) removes the
 seabed (:mod:`recon.seabed`, fitted from the DVL seabed points and the sonar seabed returns),
 clusters (:mod:`recon.cluster`) and, with ``front_slope``, moves each final
@@ -26,16 +26,23 @@ from recon.cluster_stream import StreamingClusterer
 from recon.errors import GeometryError, ReconError
 from recon.far_side import FarSideConfig, far_side_centre
 from recon.frames import check_attitude
-from recon.front_slope import arc_columns, replace_on_arcs
+from recon.front_slope import replace_on_arcs
 from recon.highlight import HighlightConfig, first_returns, frame_thresholds, onset_rows, project, run_span_bins
 from recon.poll_seabed import object_points, on_seabed
+from recon.range_arcs import arc_columns
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_band import BandConfig, OnsetTracker, seabed_returns
-from recon.seabed_memory import SeabedMemory
+from recon.seabed_memory import PLANE_BEAM_STEP, PLANE_FRAME_STEP, TEXTURE_BEAM_STEP, SeabedMemory
 from recon.seabed_texture import TextureConfig, TexturedSeabed
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
+
+#: m of seabed samples around the frames' positions behind the seabed fitted for the expected onset: the fit's box
+#: holds the fan's footprint ahead (the range window's end, 11 m) and 19 m of travel (13 s at 1.5 m/s) before a refit
+ONSET_RADIUS_M = 30.0
+#: frames between refits of that seabed while the vehicle stays inside it (10 s at 10 frames/s)
+ONSET_REFIT_FRAMES = 100
 
 
 class PoseSource(Protocol):
@@ -53,18 +60,8 @@ class ReconConfig:
     front_slope_length: float = 1.0  # m: how far behind a point its object's top is sought
     front_slope_width: float = 0.25  # m: across the look direction
     far_side: FarSideConfig = field(default_factory=FarSideConfig)  # with front_slope: centroid (recon.far_side)
-    seabed_every: int = 5  # sonar seabed returns from every n-th frame (0 = none)
     band: BandConfig = field(default_factory=BandConfig)  # each column's seabed return (recon.seabed_band)
-    remove_seabed: bool = True
-    onset_from_seabed: bool = True  # expected onset from the fitted seabed (sloped seabeds), not flat
-    onset_radius: float = 30.0  # m of seabed points around the vehicle used for that fit
-    onset_refit_frames: int = 100  # refit that seabed at most this often (unless the vehicle left it)
-    seabed_beam_step: int = 4  # sonar seabed returns from every n-th beam
     texture: TextureConfig = field(default_factory=TextureConfig)  # the seabed at the scale of its texture
-    texture_beam_step: int = 2  # seabed returns of every frame from every n-th beam feed the texture grid
-    max_object_extent: float = 4.5  # m: a cluster wider than any catalogue object (3 m) + navigation blur
-    min_object_height: float = 0.15  # m: an object's top (95th percentile) stands at least this high
-    flank_radius: float = 0.5  # m: points above the planes this near a point of an object's top are kept
 
 
 class Reconstructor:
@@ -155,25 +152,24 @@ class Reconstructor:
     def _add_seabed_samples(self, sf: NDArray[np.int64], sb: NDArray[np.int64], sr: NDArray[np.int64],
                             fi: NDArray[np.int64], bi: NDArray[np.int64], ri: NDArray[np.int64], onset: F64,
                             pos: F64, rot: Rotation) -> None:
-        """The seabed returns ``(sf, sb, sr)`` of a batch as seabed samples: every ``texture_beam_step``-th beam
-        into the texture grid, every ``seabed_beam_step``-th beam of every ``seabed_every``-th frame into the
+        """The seabed returns ``(sf, sb, sr)`` of a batch as seabed samples: every ``TEXTURE_BEAM_STEP``-th beam
+        into the texture grid, every ``PLANE_BEAM_STEP``-th beam of every ``PLANE_FRAME_STEP``-th frame into the
         tiled planes' points. Left out: returns more than ``band.sample_lead_m`` before the (corrected) onset
         (an object's front, a high crest) and columns whose highlight return came before the seabed return
         (the seabed return is then not the column's first: it lies under the seabed); ``(fi, bi, ri)`` are the
         batch's highlight returns."""
         g, cfg = self.geometry, self.config
         tex = cfg.texture.enabled
-        if not (tex or cfg.seabed_every > 0) or sf.size == 0:
+        if sf.size == 0:
             return
         first = np.full((onset.shape[0], g.n_beams), g.n_bins, np.int64)
         first[fi, bi] = ri
         near = g.ranges[sr] >= onset[sf, sb] - cfg.highlight.margin_m - cfg.band.sample_lead_m
         ok = near & (first[sf, sb] >= sr)
         sf, sb, sr = sf[ok], sb[ok], sr[ok]
-        nth = max(1, cfg.seabed_every)
-        every_frame = (self.frames + np.arange(onset.shape[0])) % nth == 0
-        dense = (sb % max(1, cfg.texture_beam_step) == 0) & tex
-        sparse = (sb % max(1, cfg.seabed_beam_step) == 0) & every_frame[sf] & (cfg.seabed_every > 0)
+        every_frame = (self.frames + np.arange(onset.shape[0])) % PLANE_FRAME_STEP == 0
+        dense = (sb % TEXTURE_BEAM_STEP == 0) & tex
+        sparse = (sb % PLANE_BEAM_STEP == 0) & every_frame[sf]
         keep = dense | sparse
         sp = project(g, sf[keep], sb[keep], sr[keep], pos, rot, "exact")
         self.memory.add_texture(sp[dense[keep]])
@@ -182,7 +178,7 @@ class Reconstructor:
     def _onset(self, pos: F64, rot: Rotation, alt: F64) -> F64:
         """Expected seabed onset per frame and beam: the fitted seabed plane where the fan looks
         (DVL + sonar seabed points), else a flat seabed at the DVL altitude."""
-        model = self._seabed_model(pos) if self.config.onset_from_seabed else None
+        model = self._seabed_model(pos)
         onset = self._onset_of(model, pos, rot, alt)
         if model is not self._onset_model:  # a new fit: the tracked correction stays on the same seabed
             self._tracker.rebase(self._onset_of(self._onset_model, pos[:1], rot[:1], alt[:1])[0] - onset[0])
@@ -216,7 +212,7 @@ class Reconstructor:
             inside = bool(np.all(lo >= c_lo) and np.all(hi <= c_hi))
             # a fit spanning only a few metres (a survey's first seconds) knows little of the slope ahead: refit
             # ten times as often while the data grow (the fit is small then)
-            every = self.config.onset_refit_frames
+            every = ONSET_REFIT_FRAMES
             if not self._slope_known(model):
                 every = max(1, every // 10)
             recent = self.frames - self._onset_fit_frame < every
@@ -224,7 +220,7 @@ class Reconstructor:
                 return model
         if n_sb < self.config.seabed.min_points:
             return None
-        pad = self.config.onset_radius
+        pad = ONSET_RADIUS_M
         near = self.memory.within(lo - pad, hi + pad)
         if near is None:
             return None
@@ -232,7 +228,7 @@ class Reconstructor:
             model = SeabedModel.fit(near, self.config.seabed)
         except ReconError:
             return None
-        ahead = 12.0  # m: where the fan meets the seabed, ahead of the vehicle, must stay inside the fit
+        ahead = self.geometry.max_range  # m: the fan's seabed footprint, ahead of the vehicle, stays inside the fit
         self._onset_cache = (lo - pad + ahead, hi + pad - ahead, n_sb, model)
         self._onset_fit_frame = self.frames
         return model
@@ -270,7 +266,7 @@ class Reconstructor:
             t = np.concatenate([b for _, b, _ in self._pending])
             e = np.concatenate([c for _, _, c in self._pending])
         self._pending = []
-        if not self.config.remove_seabed or not self.memory:
+        if not self.memory:
             return p, t, e
         if p.shape[0] == 0:
             return p, t, e
@@ -278,7 +274,7 @@ class Reconstructor:
         if model is None:
             return p, t, e
         self.seabed = model
-        keep = object_points(p, model, self.config.seabed, self.config.min_object_height, self.config.flank_radius)
+        keep = object_points(p, model, self.config.seabed)
         self.seabed_removed += int((~keep).sum())
         return p[keep], t[keep], e[keep]
 
@@ -290,7 +286,7 @@ class Reconstructor:
             hi = np.max([o.points[:, :2].max(axis=0) for o in objects], axis=0)
             if not model.covers(lo, hi):  # objects finalized away from this poll's new points
                 model = self.fit_seabed(lo, hi) or model
-        return on_seabed(objects, model, self.config.max_object_extent, self.config.min_object_height, self.rejected)
+        return on_seabed(objects, model, self.rejected)
 
     def _finalize(self, objects: list[DetectedObject]) -> list[DetectedObject]:
         """Front-slope correction (arc method) of final objects: points, extent, centroid (+ hidden far side)."""

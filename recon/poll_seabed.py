@@ -4,8 +4,9 @@
 ``seabed.min_height``; the texture grid, :class:`recon.seabed_texture.TexturedSeabed`: the threshold from the
 measured seabed noise), and, with the texture grid, an object's flanks (:func:`flanks`). :func:`on_seabed`
 gives each finalized object the depth of the seabed under it and says "not an object" to a cluster wider
-than any object or whose top does not stand high enough above the tiled planes (``min_height``, lower on a
-smooth seabed: :data:`TOP_OVER_THRESHOLD`).
+than any object (:data:`recon.target_envelope.MAX_OBJECT_EXTENT_M`) or whose top does not stand high enough
+above the tiled planes (:data:`recon.target_envelope.MIN_OBJECT_HEIGHT_M`, lower on a smooth seabed:
+:data:`TOP_OVER_THRESHOLD`). The size limits are those of the target envelope (:mod:`recon.target_envelope`).
 """
 
 from __future__ import annotations
@@ -19,15 +20,15 @@ from scipy.spatial import cKDTree
 from recon.cluster import DetectedObject, make_object
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_texture import TexturedSeabed
+from recon.target_envelope import FLANK_RADIUS_M, LOWEST_TOP_M, MAX_OBJECT_EXTENT_M, MIN_OBJECT_HEIGHT_M
 
 F64 = NDArray[np.float64]
 
 
 #: the top of an object (95th percentile of its points over the planes) stands at least this many times the
-#: point threshold above the planes, between LOWEST_TOP_M and ``min_height``: a 0.3 m half pipe's top is
-#: detected 0.13-0.15 m high at 30 deg of tilt, a crest of a 0.1 m rms seabed reaches 0.2 m and more
+#: point threshold above the planes (clipped to LOWEST_TOP_M .. MIN_OBJECT_HEIGHT_M): the lowest object's
+#: detected top (0.15 m) over the smooth-seabed threshold (5 sigma of a 0.02 m rms seabed: 0.1 m)
 TOP_OVER_THRESHOLD = 1.5
-LOWEST_TOP_M = 0.1
 
 
 def threshold(model: TexturedSeabed | SeabedModel, cfg: SeabedConfig) -> float:
@@ -35,15 +36,14 @@ def threshold(model: TexturedSeabed | SeabedModel, cfg: SeabedConfig) -> float:
     return model.min_height(cfg.min_height) if isinstance(model, TexturedSeabed) else cfg.min_height
 
 
-def object_points(p: F64, model: TexturedSeabed | SeabedModel, cfg: SeabedConfig, min_object_height: float,
-                  flank_radius: float) -> NDArray[np.bool_]:
+def object_points(p: F64, model: TexturedSeabed | SeabedModel, cfg: SeabedConfig) -> NDArray[np.bool_]:
     """Mask of the points (N, 3) that are object points (see the module docstring)."""
     h = model.height_above(p)
     thr = threshold(model, cfg)
     keep = (h >= thr) & (h <= cfg.max_height)
     if isinstance(model, TexturedSeabed):
-        anchor = keep & (h >= max(2.0 * min_object_height, 3.0 * thr))
-        keep |= flanks(p, anchor, model, cfg.min_height, cfg.max_height, flank_radius)
+        anchor = keep & (h >= max(2.0 * MIN_OBJECT_HEIGHT_M, 3.0 * thr))
+        keep |= flanks(p, anchor, model, cfg.min_height, cfg.max_height, FLANK_RADIUS_M)
     return np.asarray(keep, dtype=bool)
 
 
@@ -62,11 +62,12 @@ def flanks(p: F64, anchor: NDArray[np.bool_], model: TexturedSeabed, lo: float, 
     return out
 
 
-def on_seabed(objects: list[DetectedObject], model: TexturedSeabed | SeabedModel | None, max_extent: float,
-              min_height: float, rejected: dict[str, int]) -> list[DetectedObject]:
+def on_seabed(objects: list[DetectedObject], model: TexturedSeabed | SeabedModel | None, rejected: dict[str, int]
+              ) -> list[DetectedObject]:
     """The objects with their seabed depth (median of the tiled planes under their points: the texture grid
     may pass over part of a large object), less the clusters that are not objects (counted in ``rejected``:
     ``too_wide`` (unless its core is an object: :func:`_core`), ``too_low``)."""
+    min_height, max_extent = MIN_OBJECT_HEIGHT_M, MAX_OBJECT_EXTENT_M
     if isinstance(model, TexturedSeabed):  # a smooth seabed (low threshold) lets lower tops stand out
         min_height = float(np.clip(TOP_OVER_THRESHOLD * model.min_height(0.0), LOWEST_TOP_M, min_height))
     planes = None if model is None else model.coarse if isinstance(model, TexturedSeabed) else model

@@ -1,13 +1,14 @@
 """The seabed samples recon has seen so far, and the seabed models it fits from them.
 
-Two stores, both world NED m: the **plane samples** (the DVL's bottom points and the sparse sonar seabed returns,
-every ``seabed_every``-th frame and ``seabed_beam_step``-th beam) behind the tiled planes of :mod:`recon.seabed`,
-and the **texture grid** (:class:`recon.seabed_texture.SeabedCells`: per-cell sums of the dense seabed returns,
-the DVL points and the highlight points) behind :func:`recon.seabed_texture.fit_textured`. :meth:`SeabedMemory.fit`
-is the model of a poll (:class:`recon.pipeline.Reconstructor`, and :mod:`classify.clutter_synth`, which runs
-recon's seabed removal on synthesized patches): tiled planes from the plane samples around the box, and on them
-the texture grid. Memory grows with the samples kept (plane samples are a sparse subset) and with the area
-surveyed (the grid's cells), not with the frames.
+Two stores, both world NED m: the **plane samples** (the DVL's bottom points and the sparse sonar seabed
+returns, every :data:`PLANE_FRAME_STEP`-th frame and :data:`PLANE_BEAM_STEP`-th beam) behind the tiled planes
+of :mod:`recon.seabed`, and the **texture grid** (:class:`recon.seabed_texture.SeabedCells`: per-cell sums of
+the dense seabed returns, every :data:`TEXTURE_BEAM_STEP`-th beam of every frame, the DVL points and the
+highlight points) behind :func:`recon.seabed_texture.fit_textured`. :meth:`SeabedMemory.fit` is the model of a
+poll (:class:`recon.pipeline.Reconstructor`, and :mod:`classify.clutter_synth`, which runs recon's seabed
+removal on synthesized patches): tiled planes from the plane samples around the box, and on them the texture
+grid. Memory grows with the samples kept (plane samples are a sparse subset) and with the area surveyed (the
+grid's cells), not with the frames.
 """
 
 from __future__ import annotations
@@ -20,6 +21,15 @@ from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_texture import SeabedCells, TextureConfig, TexturedSeabed, fit_textured
 
 F64 = NDArray[np.float64]
+
+#: sonar seabed returns of every n-th frame feed the tiled planes: at the DIDSON's 10 frames/s and 1.5 m/s, a
+#: row of plane samples every 0.75 m along track, far denser than the planes' 6 m tiles need
+PLANE_FRAME_STEP = 5
+#: ... of every n-th beam: 24 of the 96 beams, a sample every 1.2 deg across the 29 deg fan (0.2 m at 10 m)
+PLANE_BEAM_STEP = 4
+#: seabed returns of every frame, every n-th beam, feed the texture grid: 48 of the 96 beams, 0.6 deg apart
+#: (0.1 m at 10 m range), finer than its 0.5 m cells
+TEXTURE_BEAM_STEP = 2
 
 
 class SeabedMemory:

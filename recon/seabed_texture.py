@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.ndimage import binary_dilation, uniform_filter
 
 from recon.seabed import SeabedModel
+from recon.target_envelope import MAX_SEABED_THRESHOLD_M
 
 F64 = NDArray[np.float64]
 
@@ -62,11 +63,6 @@ class TextureConfig:
     grow_m: float = 1.0  # m: object cells grow by this much (an object's flanks are lower than its top)
     k_sigma: float = 5.0  # object points: at least k_sigma * the measured seabed noise above the model
     min_sigma_cells: int = 25  # seabed cells (3+ samples) needed to measure the noise; fewer: the floor alone
-    # m: the object threshold never exceeds this. The measured spread of a cell's seabed samples also holds
-    # navigation misregistration between the frames that saw it (0.10-0.12 m on a 0.02 m rms seabed in a
-    # live run whose dead reckoning started late), and 5 x that would ask more height than the lowest
-    # catalogue objects have (half pipe 0.3 m): the cap keeps two thirds of the lowest object's height
-    max_threshold: float = 0.2
     highlights: bool = True  # the highlight points feed the grid too (seabed the onset search put before it)
     max_cells: int = 400_000  # a box larger than this many cells is fitted at a coarser cell
 
@@ -184,7 +180,7 @@ class TexturedSeabed:
 
     def min_height(self, floor: float) -> float:
         """Height (m) above the model from which a point counts as an object point."""
-        return max(floor, min(self.config.k_sigma * self.sigma, self.config.max_threshold))
+        return max(floor, min(self.config.k_sigma * self.sigma, MAX_SEABED_THRESHOLD_M))
 
 
 def local_level(r: F64, use: NDArray[np.bool_], size: int, ridge: float) -> F64:

@@ -115,6 +115,11 @@ class SonarGeometry:
         return np.asarray(r, dtype=np.float64)
 
     @property
+    def max_range(self) -> float:
+        """End of the range window (m): no return lies farther from the sonar."""
+        return self.window_start + self.window_length
+
+    @property
     def bin_size(self) -> float:
         return self.window_length / self.n_bins
 

@@ -96,7 +96,7 @@ def test_a_too_wide_cluster_keeps_an_object_core_and_a_crest_field_is_dropped() 
     field = np.column_stack([rng.uniform(-3, 3, (300, 2)), 30.0 - rng.uniform(0.2, 0.3, 300)])
     objs = [make_object(0, pts, np.zeros(len(pts))), make_object(1, field, np.zeros(len(field)))]
     rejected: dict[str, int] = {}
-    out = on_seabed(objs, model, 4.5, 0.15, rejected)
+    out = on_seabed(objs, model, rejected)  # the envelope: clusters up to 4.5 m, tops 0.15 m high
     assert [o.id for o in out] == [0] and rejected == {"too_wide": 1}
     assert out[0].extent[0] < 1.1 and out[0].n_points >= 390  # the box, without the skirt
     assert out[0].seabed_depth == pytest.approx(30.0, abs=0.01)

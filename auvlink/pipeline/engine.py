@@ -55,6 +55,10 @@ from recon.nav_stream import CausalNavigator
 from recon.pipeline import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 
+#: s: the strip frame of an object is the one this long after its first highlight return: at the survey speed
+#: (1.5 m/s) the vehicle has closed 1.2 m, so the object lies inside the range window, not on its far edge
+STRIP_AFTER_FIRST_S = 0.8
+
 #: ``on_frames(geometry, times, images, returns)``: frames just reconstructed (mission times s, (F, bins,
 #: beams) uint8) and their highlight returns ((frame, beam, row) arrays, :attr:`Reconstructor.last_returns`)
 FramesObserver = Callable[[SonarGeometry, npt.NDArray[np.float64], npt.NDArray[np.uint8],
@@ -250,7 +254,7 @@ class Engine:
         if len(self.strip) >= self._strip_max or not self._ring:
             return
         ts = np.array([t for t, _ in self._ring])
-        i = int(np.argmin(np.abs(ts - (t_first + 0.8))))
+        i = int(np.argmin(np.abs(ts - (t_first + STRIP_AFTER_FIRST_S))))
         t, img = self._ring[i]
         if not self.nav.covered(t)[0] or any(s.t == t for s in self.strip):
             return
