@@ -22,7 +22,6 @@ from classify.pointnet import PointNet, PointNetConfig
 from classify.scan_synth import energy_first_return
 from recon.pipeline import ReconConfig
 from recon.target_envelope import MAX_OBJECT_EXTENT_M
-from recon.target_envelope import MAX_OBJECT_EXTENT_M
 
 torch.set_num_threads(1)
 SETTINGS = replace(load_train_settings().synthesis, seed=31)
