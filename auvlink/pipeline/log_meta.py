@@ -41,7 +41,7 @@ Coordinate = Annotated[Number, Field(ge=-MAX_NED_M, le=MAX_NED_M)]
 class StoredTruthObject:
     """One entry of ``ground_truth.objects`` as the simulator writes it (other keys are ignored)."""
 
-    class_name: Annotated[Text, Field(max_length=64)]
+    class_name: Text
     position: Annotated[list[Coordinate], Field(min_length=2, max_length=3)]  # north, east[, down]
     heading_deg: Annotated[Number, Field(ge=-360.0, le=360.0)] = 0.0
     latitude: Latitude | None = None
