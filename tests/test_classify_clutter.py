@@ -120,14 +120,14 @@ def test_decision_rule_and_old_checkpoints(tmp_path: Path) -> None:
 def test_engine_counts_clutter_and_does_not_report_it(small_mission_log: Path, tmp_path: Path) -> None:
     """The real replay path (framers, codecs, engine, recon, the shipped model) of a small mission with the
     shipped model's threshold moved: at 0 every cluster is clutter, counted in the stats and summary.json and
-    never reported; above 1 none is, and both objects are reported."""
+    never reported; at 1 none is (no cluster is certainly clutter), and both objects are reported."""
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
 
     ck = load_checkpoint(DEFAULT_MODEL)
     assert CLUTTER in ck.class_names, "the shipped model has no clutter output"
     runs = {}
-    for name, thr in (("all", 0.0), ("none", 1.01)):
+    for name, thr in (("all", 0.0), ("none", 1.0)):  # a threshold is a probability, in [0, 1]
         model = save_checkpoint(tmp_path / f"{name}.pt", ck.model, ck.class_names, ck.n_points, ck.synthesis,
                                 ck.train, ck.metrics, {**ck.calibration, "clutter_threshold": thr})
         seen: list[str] = []
