@@ -56,6 +56,8 @@ U8 = NDArray[np.uint8]
 ACOUSTIC_STREAM = 0xAC0057
 #: two samples on one object further apart in range than this are two surfaces (an edge between)
 OBJECT_GAP_M = 0.15
+#: neighbouring samples nearer in range than this (bins) are one point, not a segment
+MIN_SPAN_BINS = 1e-3
 #: incidence cosine floor: a facet seen edge-on holds at most 20x its projected area in one sample
 MIN_COS = 0.05
 #: widest interference band, bins (a DVL ping of ~1 ms blanks a few centimetres of range)
@@ -187,15 +189,18 @@ class AcousticImager:
         s = surface.reshape(nk, nb)
         with np.errstate(invalid="ignore"):
             span = np.abs(x[1:] - x[:-1])  # nan where a sample misses
-            joined = (s[:-1] == s[1:]) & (span > 1e-9) & ((s[:-1] < 0) | (span * g.bin_width < OBJECT_GAP_M))
+            joined = (s[:-1] == s[1:]) & (span > MIN_SPAN_BINS) & (
+                (s[:-1] < 0) | (span * g.bin_width < OBJECT_GAP_M))
         single = np.full((nk, nb), 2.0)  # a sample's halves not in a segment stay in its own bin
         single[1:] -= joined
         single[:-1] -= joined
         own = 0.5 * e * single
         slope = np.where(joined, 0.5 * (e[:-1] + e[1:]) / np.where(joined, span, 1.0), 0.0)
+        # G(j) = sum of slope * ((j - a)_+ - (j - b)_+) over the segments, plus the steps of the rest;
+        # bin m = G(m + 1) - G(m) = S1(m + 1) + m * b1(m + 1) - b0(m + 1), S1 the running sum of the
+        # slope changes b1 and b0 the changes of slope * breakpoint (local bins: well conditioned)
         stride = n + 1
         base = np.arange(nb) * stride
-        # G(j) = j * S1(j) - S0(j): ramps of the segments (+slope from a, -slope from b), steps of the rest
         c = np.clip(np.nan_to_num(np.concatenate([np.fmin(x[:-1], x[1:]), np.fmax(x[:-1], x[1:])]),
                                   nan=0.0, posinf=n), 0.0, n)
         w = np.concatenate([slope, -slope])
@@ -203,11 +208,12 @@ class AcousticImager:
         inside = np.isfinite(x) & (x >= 0.0) & (x < n)
         pts = (np.floor(np.where(inside, x, 0.0)).astype(np.int64) + 1 + base).ravel()
         size = nb * stride + 1
-        s1 = np.cumsum(np.bincount(at, weights=w.ravel(), minlength=size))
-        s0 = np.bincount(np.concatenate([at, pts]), minlength=size,
-                         weights=np.concatenate([(w * (c + base)).ravel(), -np.where(inside, own, 0.0).ravel()]))
-        total = (np.arange(size) * s1 - np.cumsum(s0))[: nb * stride].reshape(nb, stride)
-        return np.maximum(np.diff(total, axis=1), 0.0)
+        b1 = np.bincount(at, weights=w.ravel(), minlength=size)
+        b0 = np.bincount(np.concatenate([at, pts]), minlength=size,
+                         weights=np.concatenate([(w * c).ravel(), -np.where(inside, own, 0.0).ravel()]))
+        v = (np.cumsum(b1) - b0)[: nb * stride].reshape(nb, stride)[:, 1:]
+        v += np.arange(n) * b1[: nb * stride].reshape(nb, stride)[:, 1:]
+        return np.maximum(v, 0.0)
 
     def expected(self, rng_: F64, cos2: F64, diffuse: F64, surface: NDArray[np.int32]) -> F64:
         """Expected bin energy (steps 1-3) before speckle, noise and gain; beam-major (n_beams, n_bins)."""

@@ -206,7 +206,7 @@ class SonarRenderer:
         if self.imager is None:
             raise ValueError("the scene's acoustic profile is ideal: use image()")
         obj = hits.kind == OBJECT
-        surface = np.where(obj, hits.object_index, -1).astype(np.int32)
+        surface = hits.object_index  # -1 unless the sample hit an object
         strength = np.append(self.gain, self.seabed_gain)[hits.object_index]  # index -1: the seabed
         with np.errstate(invalid="ignore"):
             cos2 = np.where(hits.kind == MISS, 0.0, hits.intensity * hits.range * hits.range / strength)
