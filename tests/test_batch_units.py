@@ -14,6 +14,7 @@ from auvlink.errors import AuvlinkError, OutputError
 from auvlink.pipeline import batch_mission
 from auvlink.pipeline.batch import check_batch_dir, discover_logs, mission_names, settings_of
 from auvlink.pipeline.batch_mission import MissionTask, run_mission
+from logs_format.records import MAGIC
 
 
 def _touch(p: Path) -> Path:
@@ -46,6 +47,7 @@ def test_mission_names_are_unique_and_stable() -> None:
 
 def _task(tmp_path: Path, name: str, **kw: Any) -> MissionTask:
     log = _touch(tmp_path / f"{name}.mcap")
+    log.write_bytes(MAGIC)  # a log starts with it: the batch checks it before the checksum
     settings = {**settings_of(None, False, False, None), **kw}
     return MissionTask(name, str(log), str(tmp_path / "out" / name), settings, classify=False, report=False)
 

@@ -8,10 +8,14 @@ checkpoint and of a ``--config`` file), its log start and end times, its site da
 seabed (:mod:`auvlink.pipeline.coverage`) for the catalogue. ``batch.json`` is written inside the
 atomic folder, so a mission folder that has it is whole.
 
-A mission whose folder holds a ``batch.json`` with the same fingerprint is skipped (a batch resumes
-where it stopped); a folder from another log, model or settings, or one without ``batch.json``, is
-replaced only with ``force``. Every failure becomes an outcome with ``status = "failed"`` and a
-one-line ``error``: the other missions go on.
+A log must start with the MCAP magic before it is hashed (:func:`~auvlink.pipeline.batch_guard.
+check_mcap_magic`). A mission whose folder holds a ``batch.json`` with the same fingerprint, and every
+output it lists with the same SHA-256, is skipped (a batch resumes where it stopped); a folder whose
+outputs were edited or deleted, or whose ``batch.json`` is unreadable while it holds nothing but a
+mission's files, is processed again; a folder from another log, model or settings, or one holding
+other files, is replaced only with ``force``. A mission that runs past ``timeout_s`` stops
+(:func:`~auvlink.pipeline.batch_guard.time_limit`) and is reported as timed out. Every failure becomes
+an outcome with ``status = "failed"`` and a one-line ``error``: the other missions go on.
 
 Memory: one mission at a time per worker process (the worker's lock, :data:`_ONE_AT_A_TIME`, also holds
 on a worker started with several threads); the log is streamed chunk by chunk by the reader.
@@ -34,6 +38,17 @@ from typing import Any
 import numpy as np
 
 from auvlink.errors import AuvlinkError
+from auvlink.pipeline.batch_guard import (
+    MissionTimeout,
+    check_mcap_magic,
+    edited,
+    only_mission_files,
+    output_digests,
+    outputs_intact,
+    seal,
+    sealed,
+    time_limit,
+)
 
 BATCH_FILE = "batch.json"
 MISSION_FORMAT = "auvlink-batch-mission/1"
@@ -64,6 +79,7 @@ class MissionTask:
     classify: bool = True
     report: bool = True
     force: bool = False
+    timeout_s: float | None = None  # --mission-timeout (s): None for no limit
 
 
 @dataclass
@@ -108,7 +124,10 @@ def run_mission(task: MissionTask) -> Outcome:
     with _ONE_AT_A_TIME:
         out.t_start, t0 = time.time(), time.perf_counter()
         try:
-            _run(task, out)
+            with time_limit(task.timeout_s):
+                _run(task, out)
+        except MissionTimeout:
+            out.error = f"timed out after {task.timeout_s:g} s (--mission-timeout); its folder keeps what it had"
         except AuvlinkError as exc:
             out.error = str(exc)
         except Exception as exc:  # the task's boundary: one mission's fault must not stop the batch
@@ -131,13 +150,17 @@ def _run(task: MissionTask, out: Outcome) -> None:
     if not log.is_file():
         raise AuvlinkError(f"{log}: no such log")
     out.log_bytes = log.stat().st_size
+    check_mcap_magic(log)  # before the checksum: a large file that is no log is read for 8 bytes, not whole
     digest = sha256_file(log)
     previous = read_record(folder)
-    if previous is not None and previous.get("log_sha256") == digest and previous.get("settings") == task.settings:
+    same = previous is not None and previous.get("log_sha256") == digest and previous.get("settings") == task.settings
+    if previous is not None and same and sealed(previous) and outputs_intact(folder, previous):
         out.status, out.record = "skipped", previous
         out.detections, out.duration_s = previous.get("detections"), previous.get("duration_s")
         return
-    if folder.is_dir() and os.listdir(folder) and not task.force:
+    # this batch's own folder, damaged: outputs or record edited, or a record that cannot be read
+    tampered = same or (previous is not None and edited(previous)) or (previous is None and only_mission_files(folder))
+    if folder.is_dir() and os.listdir(folder) and not task.force and not tampered:
         why = ("from another log, model or settings" if previous is not None
                else "without batch.json (not a finished batch mission)")
         raise AuvlinkError(f"{folder} exists {why}; give --force to reprocess it, or another --out")
@@ -169,6 +192,7 @@ def process_mission(task: MissionTask, digest: str) -> dict[str, Any]:
         if task.report:
             write_report(result, summary, tmp)
         record = mission_record(task, digest, result, start_ns, end_ns, time.perf_counter() - t0)
+        record = seal({**record, "outputs": output_digests(tmp)})  # an edited folder is processed again
         (tmp / BATCH_FILE).write_text(json.dumps(record, indent=1, allow_nan=False) + "\n")
     return record
 
