@@ -1,23 +1,29 @@
-"""``auvlink batch LOGS_OR_DIRS... --out DIR [--workers N] [--scheduler ADDRESS] [--force] [--json]``.
+"""``auvlink batch LOGS_OR_DIRS... --out DIR [--workers N | --scheduler ADDRESS] [--force] [--json] [...]``.
 
 Every mission log (the ``.mcap`` files named, and those under the folders named) goes through the
 replay pipeline on a Dask cluster (:mod:`auvlink.pipeline.batch`): one folder ``DIR/<mission>/`` per log
 with the files of ``auvlink replay`` plus ``batch.json``, then ``DIR/catalogue.geojson`` and
 ``DIR/catalogue.csv`` (the site catalogue with new / missing / stable flags) and ``DIR/batch.json``.
-A mission already done with the same log, model and settings is skipped; a log that fails is reported
-and the others go on (exit status 1 when any failed). A summary table ends the run (``--json``: the
-run as JSON on stdout instead).
+A mission already done with the same log, model and settings is skipped; a log that fails, or runs
+past ``--mission-timeout`` (default 2 h), is reported and the others go on (exit status 1 when any
+failed). Files under DIR are never taken as missions, a ``--model``, ``--config`` or log named under
+DIR is refused (exit 2), a ``--scheduler`` that is no address (the empty one included) is one line
+before any work, and DIR is locked for the run (a second batch into it is refused). A summary table
+ends the run (``--json``: the run as JSON on stdout instead).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
 from typing import Any
 
+from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import to_jsonable
+from auvlink.pipeline.batch_guard import DEFAULT_MISSION_TIMEOUT_S
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -37,6 +43,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-classify", action="store_true", help="stop after clustering")
     p.add_argument("--no-report", action="store_true", help="skip each mission's report.html")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--mission-timeout", type=float, default=DEFAULT_MISSION_TIMEOUT_S, metavar="S",
+                   help=f"stop a mission after S seconds and report it as timed out; the others go on (default "
+                        f"{DEFAULT_MISSION_TIMEOUT_S:.0f}: a 30-minute mission takes about 30 s)")
     p.add_argument("--json", action="store_true", help="print the run (batch.json) on stdout instead of the table")
 
 
@@ -75,12 +84,25 @@ def summary_table(run: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from auvlink.pipeline.batch import check_batch_dir, discover_logs, make_tasks, run_batch
+    from auvlink.pipeline.batch_guard import check_scheduler_address
+    from auvlink.pipeline.run_guard import BATCH_FILES, output_dir_lock, refuse_input_overwrite
 
-    logs = discover_logs(args.inputs)
+    if args.scheduler is not None:
+        check_scheduler_address(args.scheduler)
+    if not args.mission_timeout > 0:
+        raise AuvlinkError(f"--mission-timeout must be > 0 s, got {args.mission_timeout}")
+    logs = discover_logs(args.inputs, exclude=args.out)
+    # a mission folder is replaced whole when reprocessed; the top-level files on every run
+    refuse_input_overwrite([*logs, args.model, args.config], folder=("--out", args.out),
+                           writes=lambda rel: len(rel.parts) > 1 or rel.name in BATCH_FILES)
     check_batch_dir(args.out, args.force)  # before any work
-    tasks = make_tasks(logs, args.out, model=args.model, classify=not args.no_classify, report=not args.no_report,
-                       config=args.config, force=args.force)
-    result = run_batch(tasks, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    with output_dir_lock(args.out, force=True):  # its content is checked above: a batch's folder resumes
+        check_batch_dir(args.out, args.force)  # again under the lock: a run that ended meanwhile
+        tasks = make_tasks(logs, args.out, model=args.model, classify=not args.no_classify,
+                           report=not args.no_report, config=args.config, force=args.force)
+        tasks = [dataclasses.replace(t, timeout_s=args.mission_timeout) for t in tasks]
+        result = run_batch(tasks, args.out, workers=args.workers, scheduler=args.scheduler,
+                           progress=not args.quiet)
     doc = to_jsonable(result.to_dict())
     for o in result.failed:
         print(f"auvlink: error: {o.log}: {o.error}", file=sys.stderr)

@@ -25,9 +25,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from auvlink.atomic import check_writable_folder, write_text
+from auvlink.atomic import LOCK_NAME, check_writable_folder, write_text
 from auvlink.errors import AuvlinkError, OutputError
 from auvlink.jsonutil import to_jsonable
+from auvlink.pipeline.batch_guard import check_scheduler_address
 from auvlink.pipeline.batch_mission import MissionTask, Outcome, run_mission, sha256_file
 from auvlink.safe_names import UniqueNames, path_inside, safe_name
 from auvlink.version import __version__
@@ -38,16 +39,22 @@ LOG_SUFFIX = ".mcap"
 WAIT_WORKERS_S = 60.0  # how long a scheduler without workers is given to get one
 
 
-def discover_logs(inputs: Iterable[Path]) -> list[Path]:
+def discover_logs(inputs: Iterable[Path], exclude: Path | None = None) -> list[Path]:
     """The logs named, and every ``*.mcap`` under the folders named (recursively, hidden and ``.partial``
-    files left out), each once, in the order given (a folder's logs sorted by path)."""
+    files left out, and anything under ``exclude``: the batch's own ``--out``, whose ``results.mcap``
+    files are outputs, not missions), each once, in the order given (a folder's logs sorted by path)."""
     out: list[Path] = []
     seen: set[str] = set()
+    inside = (lambda q: os.path.realpath(q).startswith(os.path.join(os.path.realpath(exclude), ""))) \
+        if exclude is not None else (lambda q: False)
     for p in inputs:
         if p.is_dir():
             found = sorted(q for q in p.rglob(f"*{LOG_SUFFIX}")
-                           if q.is_file() and not any(part.startswith(".") for part in q.relative_to(p).parts))
+                           if q.is_file() and not any(part.startswith(".") for part in q.relative_to(p).parts)
+                           and not inside(q))
         elif p.is_file():
+            if inside(p):
+                raise AuvlinkError(f"{p} is under --out {exclude}: the batch's own files are outputs, not missions")
             found = [p]
         else:
             raise AuvlinkError(f"{p}: no such log or folder")
@@ -57,7 +64,8 @@ def discover_logs(inputs: Iterable[Path]) -> list[Path]:
                 seen.add(key)
                 out.append(q)
     if not out:
-        raise AuvlinkError(f"no {LOG_SUFFIX} logs in {', '.join(str(p) for p in inputs)}")
+        outside = f" outside --out {exclude} (its files are outputs, not missions)" if exclude is not None else ""
+        raise AuvlinkError(f"no {LOG_SUFFIX} logs in {', '.join(str(p) for p in inputs)}{outside}")
     return out
 
 
@@ -103,7 +111,7 @@ def check_batch_dir(out: Path, force: bool) -> None:
     """``DIR`` must be new, empty or an earlier batch's folder, unless ``force``; and writable."""
     if os.path.lexists(out) and not out.is_dir():
         raise OutputError(f"--out {out} exists and is not a folder; give a new folder")
-    if out.is_dir() and not force and os.listdir(out) and not _is_batch_dir(out):
+    if out.is_dir() and not force and set(os.listdir(out)) - {LOCK_NAME} and not _is_batch_dir(out):
         raise OutputError(f"{out} is not empty and not an auvlink batch folder (no {RUN_FILE}); give --force to "
                           "write into it, or another --out")
     check_writable_folder(out, f"output folder {out}")
@@ -154,7 +162,8 @@ def open_client(workers: int, scheduler: str | None) -> tuple[Any, Any, str]:
 
     from distributed import Client, LocalCluster
 
-    if scheduler:
+    if scheduler is not None:
+        check_scheduler_address(scheduler)  # an empty address is refused, never a local cluster
         try:
             client = Client(scheduler)  # waits up to distributed.comm.timeouts.connect (30 s by default)
         except (OSError, TimeoutError) as exc:
@@ -176,15 +185,32 @@ def open_client(workers: int, scheduler: str | None) -> tuple[Any, Any, str]:
 
 def run_batch(tasks: Sequence[MissionTask], out: Path, *, workers: int = 2, scheduler: str | None = None,
               progress: bool = True) -> BatchRun:
-    """Run every task on the cluster, then write the catalogue and ``DIR/batch.json``."""
+    """Run every task on the cluster, then write the catalogue and ``DIR/batch.json`` (also when the run
+    fails: then with its ``error`` and the outcomes so far, the missions not run as failed)."""
+    t0 = time.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
+    outcomes: dict[str, Outcome] = {}
+    try:
+        run = _run_on_cluster(tasks, out, outcomes, workers, scheduler, progress)
+    except BaseException as exc:  # batch.json says the run failed and what it did: never the last run's
+        failed = BatchRun([outcomes.get(t.mission) or Outcome(t.mission, t.log, "failed", error="not run")
+                           for t in tasks], "", 0, time.perf_counter() - t0)
+        doc = {**failed.to_dict(), "error": " ".join(f"{type(exc).__name__}: {exc}".split())}
+        write_text(out / RUN_FILE, json.dumps(to_jsonable(doc), indent=1, allow_nan=False) + "\n")
+        raise
+    run.wall_s = time.perf_counter() - t0
+    write_text(out / RUN_FILE, json.dumps(to_jsonable(run.to_dict()), indent=1, allow_nan=False) + "\n")
+    return run
+
+
+def _run_on_cluster(tasks: Sequence[MissionTask], out: Path, outcomes: dict[str, Outcome], workers: int,
+                    scheduler: str | None, progress: bool) -> BatchRun:
+    """The missions on the cluster (``outcomes`` filled as they end), then the catalogue."""
     from distributed import as_completed
 
     from auvlink.progress import progress_bar
 
-    t0 = time.perf_counter()
-    out.mkdir(parents=True, exist_ok=True)
     client, cluster, what = open_client(workers, scheduler)
-    outcomes: dict[str, Outcome] = {}
     try:
         n_workers = len(client.scheduler_info().get("workers", {})) or workers
         futures = {client.submit(run_mission, t, key=f"auvlink-mission-{t.mission}-{os.urandom(4).hex()}",
@@ -208,9 +234,8 @@ def run_batch(tasks: Sequence[MissionTask], out: Path, *, workers: int = 2, sche
         client.close()
         if cluster is not None:
             cluster.close()
-    run = BatchRun([outcomes[t.mission] for t in tasks], what, n_workers, time.perf_counter() - t0)
+    run = BatchRun([outcomes[t.mission] for t in tasks], what, n_workers, 0.0)
     run.catalogue = write_site_catalogue(out, [o for o in run.outcomes if o.status != "failed"])
-    write_text(out / RUN_FILE, json.dumps(to_jsonable(run.to_dict()), indent=1, allow_nan=False) + "\n")
     return run
 
 
