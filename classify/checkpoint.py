@@ -5,10 +5,10 @@ Keys: ``format``, ``state_dict``, ``model_config`` (:class:`PointNetConfig`), ``
 ``n_points`` (points per cloud fed to the network), ``synthesis`` (:class:`SynthesisSettings`),
 ``train`` (:class:`TrainConfig`), ``metrics`` (any JSON-like dict), ``calibration`` (settings measured after
 training that inference applies: ``clutter_threshold``, the probability of ``clutter`` from which a cloud is
-called clutter; absent in older checkpoints, which load as before; a threshold set later from survey replays
-keeps the one before as ``clutter_threshold_heldout`` (set by hand, session 23) or ``clutter_threshold_before``
-(``auvlink eval --surveys N --calibrated-model``, ``auvlink train --calibrate-surveys N``) and says where it came
-from in ``clutter_threshold_source``),
+called clutter; a checkpoint without it never calls a cloud clutter. A threshold set from survey replays
+(``auvlink eval --surveys N --calibrated-model``, ``auvlink train --calibrate-surveys N``) keeps the one it replaced
+as ``clutter_threshold_before`` and says where it came from in ``clutter_threshold_source``; the shipped model
+also holds its held-out calibration as ``clutter_threshold_heldout``),
 ``members`` (optional: the state dicts of
 further models of the same config, trained from other seeds; inference averages their probabilities with the
 first's, :class:`classify.ensemble.Ensemble`).

@@ -6,21 +6,19 @@ same cloud, same answer), centres and scales them into the unit sphere as in tra
 ``(class_name, score)`` with the softmax probability as the score (a checkpoint of several models trained from other
 seeds, ``[train] members``: the mean of their probabilities). A model trained on
 seabed-referenced clouds (synthesis ``z_ref = "seabed"``) also takes the depth of the seabed under the
-object (``seabed_depth``, m, NED; recon fits it: :meth:`recon.pipeline.Reconstructor.seabed_depth_at`):
+object (``seabed_depth``, m, NED; recon gives it with each object: ``recon.cluster.DetectedObject.seabed_depth``):
 the object's height above the seabed is then a feature. Without it, the cloud's deepest point stands
 in for the seabed (objects then look shorter than they are: pass the depth). Batch-norm layers are folded
 into their linear layers once at load time; inference runs under ``torch.inference_mode``.
 
 Test-time yaw views (``yaw_views``, default :data:`YAW_VIEWS`): the network was trained with a random yaw about
 the down axis (an object's heading and the pass direction are unknown), so each cloud is also shown turned by
-``360 / yaw_views`` degree steps about its vertical axis and the probabilities of the views are averaged. Over
-the 120 random surveys of session 22 (seeds 47475, 22987, 33898) 4 views turned 17 wrong classes into 12 (one
-more object missed, 2 clutter detections fewer); see ``benchmarks/RESULTS.md``, session 23.
+``360 / yaw_views`` degree steps about its vertical axis and the probabilities of the views are averaged.
 
 A model trained with the class ``clutter`` (:data:`classify.labels.CLUTTER`: not an object, what recon makes of a
 rough seabed) names a cloud ``clutter`` when that probability reaches the checkpoint's calibrated
 ``clutter_threshold`` (:meth:`Classifier.decide`); otherwise the most probable object class. A checkpoint
-without that class (8 outputs) classifies as before and never says ``clutter``.
+without that class (8 outputs) never says ``clutter``.
 """
 
 from __future__ import annotations
