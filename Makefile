@@ -1,10 +1,11 @@
-# Two entry points: `make demo` (the main job) and `make test`. Both build .venv themselves.
+# Two entry points: `make demo` (the main job) and `make test` (CI: lint, types, every test). Both build .venv
+# themselves. `make test-fast` is the edit-run loop: ruff and the tests no marker puts aside (pyproject.toml).
 PY ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint typecheck bench clean venv
+.PHONY: demo test test-fast lint typecheck bench clean venv
 
 $(STAMP): pyproject.toml
 	@bash scripts/ensure_system_deps.sh
@@ -28,6 +29,12 @@ typecheck: $(STAMP)
 
 test: $(STAMP) lint typecheck
 	$(BIN)/python -m pytest
+
+FAST_TESTS := not slow and not live and not dask and not train and not browser
+
+test-fast: $(STAMP)
+	$(BIN)/ruff check auvlink logs_format recon classify tests benchmarks
+	$(BIN)/python -m pytest -m "$(FAST_TESTS)"
 
 bench: $(STAMP)
 	$(BIN)/auvlink bench --out bench-out

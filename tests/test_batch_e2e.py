@@ -14,7 +14,7 @@ from batch_helpers import DATUM, OBJECTS, REMOVED, SURVEYS, site_logs
 
 from auvlink.cli import main
 
-pytestmark = pytest.mark.timeout(240)
+pytestmark = [pytest.mark.timeout(240), pytest.mark.slow]
 
 
 def _detections(folder: Path) -> list[dict[str, object]]:

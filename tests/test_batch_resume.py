@@ -22,6 +22,7 @@ def _run(out: Path) -> dict[str, dict[str, object]]:
     return {m["mission"]: m for m in json.loads((out / "batch.json").read_text())["missions"]}
 
 
+@pytest.mark.slow
 def test_resume_skips_done_missions_and_reports_a_corrupt_log(
         tmp_path: Path, tmp_path_factory: pytest.TempPathFactory, capsys: pytest.CaptureFixture[str]) -> None:
     good = site_logs(tmp_path_factory)[::2]
@@ -56,6 +57,7 @@ def test_resume_skips_done_missions_and_reports_a_corrupt_log(
     assert json.loads((out / "catalogue.geojson").read_text())["features"] == gj["features"]
 
 
+@pytest.mark.slow
 def test_other_settings_need_force(tmp_path: Path, tmp_path_factory: pytest.TempPathFactory,
                                    capsys: pytest.CaptureFixture[str]) -> None:
     log = site_logs(tmp_path_factory)[0]

@@ -16,7 +16,7 @@ from batch_helpers import site_logs
 
 from auvlink.cli import main
 
-pytestmark = pytest.mark.timeout(240)
+pytestmark = [pytest.mark.timeout(240), pytest.mark.dask, pytest.mark.slow]
 
 
 def _start(args: list[str], log: Path) -> subprocess.Popen[bytes]:

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from image_checks import assert_plot_drawn
 
 from auvlink.cli import main
 from auvlink.cli.bench import STAGES, benchmarks_dir, render_report
@@ -41,6 +42,7 @@ def _results() -> dict:
             }}
 
 
+@pytest.mark.slow
 def test_render_writes_every_plot_and_table(tmp_path: Path) -> None:
     html_path = report.render(_results(), tmp_path)
     page = html_path.read_text()
@@ -48,7 +50,7 @@ def test_render_writes_every_plot_and_table(tmp_path: Path) -> None:
     assert pngs == ["curve_stability_growth.png", "peers.png", "tradeoff_sim_rays_per_beam_k.png"]
     for name in pngs:
         assert f'data-file="plots/{name}"' in page
-        assert (tmp_path / "plots" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert_plot_drawn(tmp_path / "plots" / name)  # a PNG with its data drawn in colour
     assert page.count("data:image/png;base64,") == 3
     assert 'id="sim"' in page and 'id="stability"' in page
     assert "a &lt;b&gt;" in page and '<tr class="fail"><td>b</td>' in page
@@ -63,6 +65,7 @@ def test_render_writes_every_plot_and_table(tmp_path: Path) -> None:
     assert "Defaults against the Pareto front" in page
 
 
+@pytest.mark.slow
 def test_cli_report_only_rerenders(tmp_path: Path) -> None:
     (tmp_path / "results.json").write_text(json.dumps(_results()))
     assert main(["bench", "--out", str(tmp_path), "--report-only"]) == 0
@@ -71,6 +74,7 @@ def test_cli_report_only_rerenders(tmp_path: Path) -> None:
     assert "stability" in STAGES
 
 
+@pytest.mark.slow
 def test_cli_rejects_unknown_stage(tmp_path: Path) -> None:
     proc = subprocess.run([sys.executable, "-c", "import sys; from auvlink.cli import main; "
                            "sys.exit(main(sys.argv[1:]))", "bench", "nosuch", "--out", str(tmp_path)],

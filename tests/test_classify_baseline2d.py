@@ -27,6 +27,7 @@ def test_random_shift_moves_content_and_is_seeded() -> None:
     assert random_shift(img, np.random.default_rng(0), 0) is img
 
 
+@pytest.mark.train
 def test_toy_training_beats_chance() -> None:
     rng = np.random.default_rng(0)
     n = 60

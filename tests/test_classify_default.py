@@ -51,6 +51,7 @@ def test_shipped_model_small_and_complete(shipped: Classifier) -> None:
     # accuracy is measured by running the model (below), not read from the metrics stored in the checkpoint
 
 
+@pytest.mark.slow
 def test_shipped_model_accuracy_on_heldout_views(shipped: Classifier) -> None:
     """A held-out set synthesized here: 8 random views per class (headings 0-360 deg, tilts 20-45 deg, a
     seed the training never used; single, fused and partial views as in training) through the shipped model.
@@ -81,6 +82,7 @@ def test_shipped_model_accuracy_on_heldout_views(shipped: Classifier) -> None:
     assert clutter <= 6, clutter
 
 
+@pytest.mark.slow
 def test_shipped_model_names_clutter(shipped: Classifier) -> None:
     """Clutter clouds of seabed patches the training never drew (another seed): what recon leaves of a rough
     seabed, through the shipped model in the world frame. Measured: 9 of 12 called clutter (seed 4242; 10 of 12
@@ -92,6 +94,7 @@ def test_shipped_model_names_clutter(shipped: Classifier) -> None:
     assert sum(label == CLUTTER for label in labels) >= 7, labels
 
 
+@pytest.mark.slow
 def test_shipped_model_names_unseen_views(shipped: Classifier) -> None:
     settings = replace(SynthesisSettings.from_dict(shipped.checkpoint.synthesis), seed=4242)
     rng = np.random.default_rng(4242)
@@ -107,6 +110,7 @@ def test_shipped_model_names_unseen_views(shipped: Classifier) -> None:
     assert right >= 12  # of 16 (measured 14; chance is 2)
 
 
+@pytest.mark.slow
 def test_shipped_model_names_reconstructed_clouds(shipped: Classifier) -> None:
     """Clouds recon makes of simulated passes (simulator -> sonar frames -> recon), one per class."""
     s = PassSettings(seed=2027, run_in=11.0)
@@ -120,6 +124,8 @@ def test_shipped_model_names_reconstructed_clouds(shipped: Classifier) -> None:
     assert seen >= 7 and right >= seen - 1, (right, seen)
 
 
+@pytest.mark.slow
+@pytest.mark.train
 def test_quick_retrain_reproduces_accuracy(shipped: Classifier, tmp_path: Path) -> None:
     from auvlink.cli import main
 
@@ -131,6 +137,7 @@ def test_quick_retrain_reproduces_accuracy(shipped: Classifier, tmp_path: Path) 
     assert quick >= ref - QUICK_TOLERANCE, (quick, ref)
 
 
+@pytest.mark.slow
 def test_eval_cli_writes_report(shipped: Classifier, tmp_path: Path) -> None:
     import json
 

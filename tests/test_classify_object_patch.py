@@ -7,6 +7,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from auvlink.sim.catalog import mesh_for
 from auvlink.sim.scene import Seabed
@@ -43,6 +44,7 @@ def test_the_obstacle_returns_before_the_seabed() -> None:
     assert np.median(np.linalg.norm(p[:, :2] - (lo[:2] + hi[:2]) / 2, axis=1)) < 2.0
 
 
+@pytest.mark.slow
 def test_views_on_rough_patches_are_recon_clusters_on_the_object() -> None:
     """Views of a box and a hemisphere: clusters centred within ``object_patch_offset_m`` of the object, standing
     about the object's height above the seabed depth recon gives them (the rough seabed's error, +- 0.3 m), no
@@ -63,6 +65,7 @@ def test_views_on_rough_patches_are_recon_clusters_on_the_object() -> None:
             np.testing.assert_array_equal(got[0][0], again[0])
 
 
+@pytest.mark.slow
 def test_training_clouds_and_cache_keys() -> None:
     """``synthesize_object_patches`` gives training clouds of the stored shape, the same for the same seed; the
     flat synthesis's cache key ignores the patch settings (its clouds do not depend on them); held-out draws a

@@ -157,6 +157,7 @@ def logs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, VehicleC
     return good, bad, stored
 
 
+@pytest.mark.slow
 def test_bad_metadata_replays_its_sensor_data_with_one_warning(
         logs: tuple[Path, Path, VehicleConfig], capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     from auvlink.pipeline.process import run_log
@@ -178,6 +179,7 @@ def test_bad_metadata_replays_its_sensor_data_with_one_warning(
     assert [d.position_ned for d in given.detections] == [d.position_ned for d in ref.detections]
 
 
+@pytest.mark.slow
 def test_replay_cli_takes_config(logs: tuple[Path, Path, VehicleConfig], tmp_path: Path,
                                  capsys: pytest.CaptureFixture[str]) -> None:
     from auvlink.cli import main

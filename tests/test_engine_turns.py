@@ -16,6 +16,8 @@ from auvlink.pipeline.process import FRAME_BLOCK, run_log
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import loads_scene
 
+pytestmark = pytest.mark.slow
+
 pytest.importorskip("open3d")
 
 # two 16 m lines and a turn over an empty rough seabed sloping 9.9 deg

@@ -31,6 +31,7 @@ def test_best_threshold_is_the_middle_of_a_tie() -> None:
     assert best_threshold(rows, prefer=0.5) == 0.4  # not among them: the middle
 
 
+@pytest.mark.slow
 def test_sweep_scores_what_a_run_at_the_threshold_reports(tmp_path: Path) -> None:
     """Two small surveys run as usual and with the sweep, with a model whose threshold calls many clusters
     clutter: the sweep's detections at the model's threshold are those of the plain run, to the bit, and its
@@ -61,6 +62,8 @@ def test_sweep_scores_what_a_run_at_the_threshold_reports(tmp_path: Path) -> Non
     assert "--clutter-sweep" in swept["command"]
 
 
+@pytest.mark.slow
+@pytest.mark.train
 def test_calibrated_model_from_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``--calibrated-model`` writes the model with the sweep's best threshold, and never replaces a file
     without --force (refused before any work)."""
@@ -87,6 +90,8 @@ def test_calibrated_model_from_the_command_line(tmp_path: Path, capsys: pytest.C
     assert out.read_bytes() == before and not (tmp_path / "again" / "surveys.json").exists()
 
 
+@pytest.mark.slow
+@pytest.mark.train
 def test_calibrate_model_sets_the_sweeps_best_threshold_in_place(tmp_path: Path) -> None:
     """What ``auvlink train --calibrate-surveys`` runs after training: the checkpoint itself takes the sweep's best
     threshold, keeps the one it had as ``clutter_threshold_before``, and says where the new one came from; its

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from image_checks import assert_plot_drawn
 
 from auvlink.evaluation.draw import MIN_SEPARATION, SPACE, draw_survey, draw_surveys, onset_range
 from auvlink.evaluation.score import bin_label, by_class, interval95, pool, score_survey
@@ -98,6 +99,7 @@ def test_bins() -> None:
     assert bin_label("fps", 8.0) == "8-11" and bin_label("tilt_deg", 44.99) == "35-45"
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     """The CI smoke: 2 small surveys of the space simulated, replayed and scored in two processes."""
@@ -116,8 +118,11 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
         assert r["sonar_frames"] > 100 and r["score"]["objects"] == 2
     o = res["overall"]
     assert o["objects"] == 4 and o["detections"] >= 1
-    assert 0.0 <= o["precision_1m"] <= 1.0 and 0.0 <= o["recall_1m"] <= 1.0
+    correct = sum(r["score"]["correct_1m"] for r in data["surveys"])  # pooled = the surveys' counts summed
+    assert o["precision_1m"] == correct / o["detections"] and o["recall_1m"] == correct / 4
+    assert correct >= 3, data["surveys"]  # RESULTS.md: recall 0.97 at 1 m over 120 surveys; one miss in 4 at most
     assert len(o["recall_1m_ci95"]) == 2 and "95 % interval" in interval_line(res)
-    assert "roughness" in text_table(res) and (tmp_path / "surveys.png").stat().st_size > 1000
+    assert "roughness" in text_table(res)
+    assert_plot_drawn(tmp_path / "surveys.png")
     assert sum(r["objects"] for r in data["by_class"]) == 4 and data["by_class"] == res["by_class"]
     assert all(r["class"] in class_table(res) for r in res["by_class"])

@@ -31,6 +31,7 @@ def _cpu_time(fmt: str, data: bytes) -> float:
     return max(best, 1e-4)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("fmt", "what", "pattern"), CASES, ids=[f"{f}-{w}" for f, w, _ in CASES])
 def test_worst_pattern_is_linear(fmt: str, what: str, pattern: bytes) -> None:
     assert 4 * SIZE <= FEED_SLICE
@@ -77,6 +78,7 @@ def _ensemble(nbytes: int, seed: int) -> bytes:
     return bytes(body) + (sum(body) & 0xFFFF).to_bytes(2, "little")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("chunk", [1, 777, 4096, 1 << 16])
 def test_pd0_long_ensembles_checked_by_prefix_sums(chunk: int) -> None:
     """Ensembles longer than the numpy threshold are summed from the running prefix: same answers."""

@@ -16,6 +16,8 @@ from auvlink.pipeline.live import LiveRun
 from auvlink.pipeline.process import run_log
 from auvlink.pipeline.results import MissionResult
 
+pytestmark = [pytest.mark.live, pytest.mark.slow]
+
 
 @pytest.fixture(scope="module")
 def live_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, MissionResult]:

@@ -27,6 +27,8 @@ FAULTS = (
     Fault("sonar", at_s=10.5, kind="stall", duration_s=1.5),  # the sonar socket holds 15 frames, then bursts
 )
 
+pytestmark = [pytest.mark.live, pytest.mark.slow]
+
 
 @pytest.fixture(scope="module")
 def faulty_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, MissionResult]:

@@ -11,12 +11,15 @@ from pathlib import Path
 
 import numpy as np
 import pymap3d
+import pytest
 from live_helpers import SCENE, TRUTH_NE, start, threads, vehicle_config
 
 from auvlink.config import load_config
 from auvlink.pipeline.live import LiveRun
 from auvlink.sim.live import serve
 from auvlink.sim.scene import loads_scene
+
+pytestmark = [pytest.mark.live, pytest.mark.slow]
 
 SITE = (36.0412, 129.3915)  # the default datum, as in examples/virtual_ports.toml
 GNSS_SCENE = SCENE + """

@@ -19,6 +19,8 @@ from live_helpers import ROOT, simulate, start, threads, vehicle_config
 from auvlink.cli import main
 from logs_format import MissionLogReader
 
+pytestmark = [pytest.mark.live, pytest.mark.slow]
+
 LIMIT = 1_500_000  # bytes: the "disk" fills after a few seconds of mission
 
 

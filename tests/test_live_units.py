@@ -8,6 +8,7 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
 from live_helpers import vehicle_config
 
 from auvlink.driver import Driver
@@ -16,6 +17,8 @@ from auvlink.pipeline.live import LiveRun
 from auvlink.pipeline.ports import PortReader
 from auvlink.records import Sample
 from auvlink.transports.base import Transport
+
+pytestmark = pytest.mark.live
 
 
 def test_a_full_sonar_queue_drops_whole_frames_and_counts_them(tmp_path: Path) -> None:

@@ -233,6 +233,7 @@ def sim_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_replay_of_a_damaged_simulated_log(tmp_path: Path, sim_log: Path,
                                            capsys: pytest.CaptureFixture[str]) -> None:
     with MissionLogReader(sim_log) as log:

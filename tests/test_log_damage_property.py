@@ -15,6 +15,8 @@ from auvlink.codecs import dsp1760
 from logs_format import MissionLogReader, MissionLogWriter, log_info, replay_samples
 from logs_format.chunks import ChunkOpener
 
+pytestmark = pytest.mark.slow
+
 T0 = 1_700_000_000_000_000_000
 Msg = tuple[str, int, bytes]
 

@@ -51,6 +51,7 @@ def decode_all(path: Path) -> tuple[dict[str, list[object]], dict[str, tuple[str
     return records, schemas, raw
 
 
+@pytest.mark.slow
 def test_every_raw_channel_of_a_simulated_log_decodes_through_the_factory(sim_log: Path) -> None:
     records, schemas, raw = decode_all(sim_log)
     wire = {t: s for t, s in schemas.items() if s[3] != "json"}
@@ -93,12 +94,14 @@ def test_a_frame_that_does_not_decode_raises_or_is_kept(tmp_path: Path) -> None:
     assert isinstance(recs[1], UndecodedFrame) and recs[1].format == "paro" and recs[1].data.endswith(b"garbage\r\n")
 
 
+@pytest.mark.slow
 def test_without_the_factory_mcap_cannot_decode_them(sim_log: Path) -> None:
     with open(sim_log, "rb") as f, pytest.raises(DecoderNotFoundError):
         for _ in make_reader(f).iter_decoded_messages(topics=["dvl"]):
             pass
 
 
+@pytest.mark.slow
 def test_old_logs_with_empty_schemas_decode_by_channel_encoding(sim_log: Path, tmp_path: Path) -> None:
     """A log of an earlier version: raw channels with schema name = encoding, no schema encoding, no data."""
     old = tmp_path / "old.mcap"
