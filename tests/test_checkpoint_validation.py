@@ -166,6 +166,10 @@ def test_cli_eval_names_the_bad_field(shipped: dict[str, Any], tmp_path: Path,
     assert main(["eval", "--model", str(bad), "--out", str(tmp_path / "ev")]) == 1
     _one_error_line(capsys.readouterr().err, "class_names[0]", "plain identifier")
     assert not (tmp_path / "ev" / "eval.json").exists()
+    bad = _bad(tmp_path, shipped, CASES["scale_nan"][0], "scale.pt")  # refused before a survey is simulated
+    assert main(["eval", "--surveys", "1", "--small", "--model", str(bad), "--out", str(tmp_path / "sv")]) == 1
+    _one_error_line(capsys.readouterr().err, "synthesis.scale_m")
+    assert not (tmp_path / "sv" / "surveys").exists()
 
 
 @pytest.mark.slow

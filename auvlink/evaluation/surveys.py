@@ -114,6 +114,10 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
     """Run ``n`` surveys of the draw ``seed`` into ``out``; returns (and writes) ``surveys.json``'s content.
     ``small``: the CI smoke draw (:func:`auvlink.evaluation.draw.draw_survey`); ``clutter_sweep``: see the module
     docstring."""
+    if model is not None:  # every field checked before the first survey is simulated (minutes)
+        from classify.checkpoint import read_checkpoint
+
+        read_checkpoint(model)
     draws = draw_surveys(n, seed, small)
     at = model_threshold(model) if clutter_sweep else None
     jobs = [SurveyJob(d, out / "surveys" / f"{d.index:03d}", model, keep_logs, at) for d in draws]
