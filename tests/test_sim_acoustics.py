@@ -82,6 +82,21 @@ def test_errors_name_the_key(table: str, key: str) -> None:
     assert key in str(err.value)
 
 
+def test_published_schema_holds_the_table() -> None:
+    """docs/schemas/scene.schema.json takes a realistic table and refuses an unknown key, like the loader."""
+    import json
+    import tomllib
+
+    import jsonschema
+
+    schema = json.loads((Path(__file__).resolve().parents[1] / "docs" / "schemas" / "scene.schema.json").read_text())
+    doc = tomllib.loads(default_scene_text() + '\n[acoustics]\nprofile = "aris3000"\nsidelobe_db = -22.0\n')
+    jsonschema.validate(doc, schema)
+    doc["acoustics"]["side_lobe_db"] = -22.0
+    with pytest.raises(jsonschema.ValidationError, match="side_lobe_db"):
+        jsonschema.validate(doc, schema)
+
+
 def test_profiles_resolve_with_overrides() -> None:
     p = resolve(AcousticsTable(profile="aris3000", sidelobe_db=-18.0))
     assert p is not None and p.sidelobe_db == -18.0 and p.absorption_db_per_m == 2.6
