@@ -22,7 +22,7 @@ import numpy as np
 
 from auvlink import formats
 from auvlink.jsonutil import to_jsonable
-from auvlink.safe_names import UniqueNames
+from auvlink.safe_names import UniqueNames, path_inside
 from logs_format.fan import FanGrid, fan_grid, save_fan_png, sonar_geometry
 from logs_format.replay import Replay
 
@@ -115,7 +115,7 @@ def export_log(
                         "t_sensor_s": "" if sample.t_sensor is None else sample.t_sensor}
                 if geometry is None:
                     if name not in tables:
-                        tables[name] = _Csv(out / f"{name}.csv")
+                        tables[name] = _Csv(path_inside(out, f"{name}.csv"))
                         result.files.append(tables[name].path)
                     tables[name].write({**base, **record_columns(sample.record, sample.format)})
                     continue
@@ -130,7 +130,7 @@ def export_log(
                 if name not in grids or grids[name][0] != key:
                     grids[name] = (key, fan_grid(ranges, azimuths))
                 grid = grids[name][1]
-                folder = out / name
+                folder = path_inside(out, name)
                 if name not in tables:
                     folder.mkdir(exist_ok=True)
                     tables[name] = _Csv(folder / "frames.csv")
