@@ -68,7 +68,7 @@ def gnss_payload(fmt_record: Any, seen_gga: bool) -> GnssPayload | None:
 
 
 class Georef:
-    """See the module docstring. ``site``: the configured datum (None: the first fix's)."""
+    """See the module docstring. ``site``: the configured datum (None: from the first fixes that agree)."""
 
     def __init__(self, site: Datum | None, lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  has_gnss: bool = False) -> None:

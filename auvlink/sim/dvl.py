@@ -17,7 +17,9 @@ relative to the instrument** (PD0 sign convention)::
     bt = -[v_meas_starboard, v_meas_forward, -v_meas_down, error]   (error: white, velocity_sigma)
 
 so ``rdi_ship_to_body(bottom_track_to_vehicle(bt[:3]))`` gives ``v_meas`` back. A dropout (one
-probability per ping) marks all four beams bad: velocity -32768 (NaN) and range 0 (NaN). The
+probability per ping) marks all four beams bad: velocity -32768 (NaN) and range 0 (NaN); so does a
+beam whose vertical range is beyond :data:`MAX_BOTTOM_RANGE_M` (no bottom detection: a seabed too deep,
+or a beam near the horizontal when the vehicle pitches steeply). The
 DVL's own heading/pitch/roll are the truth plus white noise; temperature is the water's plus noise;
 the leader's depth is the transducer's true depth. Ensemble numbers count from 1; the RTC is the
 mission clock (hundredths of a second).
@@ -41,6 +43,8 @@ from auvlink.sim.trajectory import LawnmowerTrajectory, TruePose
 F64 = NDArray[np.float64]
 BEAM_ANGLE_DEG = 20
 DVL_FREQUENCY_KHZ = 600
+#: the deepest vertical bottom-track range, m (Teledyne RDI Workhorse Navigator 600 kHz data sheet: 0.7-90 m)
+MAX_BOTTOM_RANGE_M = 90.0
 
 
 def beam_directions(rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> F64:
@@ -93,6 +97,7 @@ def simulate_dvl(traj: LawnmowerTrajectory, seabed: SeabedSurface, t: F64, senso
         for k in range(n):
             slant[k], _ = seabed.intersect(origin[k], dirs[k])
     vertical = slant * math.cos(math.radians(BEAM_ANGLE_DEG))
+    vertical[vertical > MAX_BOTTOM_RANGE_M] = np.nan  # no bottom detection
 
     def draw(quantity: str, shape: tuple[int, ...], sigma: float) -> F64:
         if sigma == 0.0:
