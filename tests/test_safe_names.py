@@ -175,3 +175,28 @@ def test_batch_mission_names_stay_in_the_batch_layout(tmp_path: Path) -> None:
     for t in tasks:
         folder = Path(t.out)
         assert folder.parent == out.absolute() and _inside(out, folder.name), t.out
+
+
+@pytest.mark.slow
+@pytest.mark.dask
+def test_batch_of_logs_named_dot_dot_stays_in_its_layout(small_mission_log: Path, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """``auvlink batch`` of real logs named ``..mcap`` and ``...mcap`` (once ``DIR/.`` and ``DIR/..``): each
+    mission in a folder of its own inside ``--out``, nothing written beside it."""
+    import shutil
+
+    from auvlink.cli import main
+
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for name in ("..mcap", "...mcap"):
+        shutil.copyfile(small_mission_log, logs / name)
+    out = tmp_path / "site"
+    assert main(["batch", str(logs / "..mcap"), str(logs / "...mcap"), "--out", str(out), "--workers", "1",
+                 "--quiet", "--no-report", "--json"]) == 0, capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["logs", "site"]
+    assert sorted(p.name for p in logs.iterdir()) == ["...mcap", "..mcap"]
+    missions = sorted(p.name for p in out.iterdir() if p.is_dir())
+    assert missions == ["logs-mission", "logs-mission-2"]
+    for m in missions:
+        assert (out / m / "detections.jsonl").is_file() and (out / m / "batch.json").is_file()
