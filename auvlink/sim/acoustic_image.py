@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,6 +52,7 @@ from auvlink.sim.sonar_geometry import SonarGeometry
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
 U8 = NDArray[np.uint8]
+FArray = TypeVar("FArray", NDArray[np.float32], NDArray[np.float64])
 
 #: SeedSequence stream tag of the per-survey acoustic draws (the gain offset)
 ACOUSTIC_STREAM = 0xAC0057
@@ -95,7 +97,7 @@ def speckle_table(looks: float, texture: float) -> F32:
 EXP_TABLE = np.asarray(-np.log1p(-(np.arange(65536) + 0.5) / 65536.0), np.float32)
 
 
-def spread_in_range(energy: F64, pulse_bins: float) -> F64:
+def spread_in_range(energy: FArray, pulse_bins: float) -> FArray:
     """Beam-major (beams, bins): each bin's energy spread uniformly over the next ``pulse_bins`` bins
     (``floor`` whole bins, then the fraction in one more): a rectangular pulse, energy kept."""
     if pulse_bins <= 1.0:
@@ -106,8 +108,9 @@ def spread_in_range(energy: F64, pulse_bins: float) -> F64:
     for j in range(1, whole):  # one pass per whole tap of the pulse
         out[:, j:] += energy[:, :-j]
     if frac > 0.0:
-        out[:, whole:] += frac * energy[:, :-whole]
-    return np.asarray(out / pulse_bins)
+        out[:, whole:] += energy.dtype.type(frac) * energy[:, :-whole]
+    out *= energy.dtype.type(1.0 / pulse_bins)
+    return out
 
 
 def beam_mixing(n_beams: int, width_beams: float, sidelobe_db: float) -> F64:
@@ -121,7 +124,7 @@ def beam_mixing(n_beams: int, width_beams: float, sidelobe_db: float) -> F64:
     return np.where(k >= 2.0, np.maximum(main, side), main)
 
 
-def spread_across_beams(energy: F64, mixing: F64) -> F64:
+def spread_across_beams(energy: FArray, mixing: FArray) -> FArray:
     """Beam-major (beams, bins): every beam's received energy through the azimuth response ``mixing``.
 
     In blocks of bins small enough that OpenBLAS multiplies each on one thread (below its
@@ -164,7 +167,7 @@ class AcousticImager:
         draw = np.random.default_rng(np.random.SeedSequence([seed, ACOUSTIC_STREAM]))
         self.gain_db = params.gain_db + params.gain_jitter_db * (2.0 * draw.random() - 1.0)
         self.table = speckle_table(params.speckle_looks, params.texture_shape)
-        self.mixing = beam_mixing(g.n_beams, params.azimuth_width_beams, params.sidelobe_db)
+        self.mixing = beam_mixing(g.n_beams, params.azimuth_width_beams, params.sidelobe_db).astype(np.float32)
 
     def sample_energy(self, rng_: F64, cos2: F64, diffuse: F64, is_object: NDArray[np.bool_]) -> F64:
         """Energy of every sample (step 1): ranges (m), cos^2 of incidence, diffuse strength (linear)."""
@@ -215,18 +218,19 @@ class AcousticImager:
         v += np.arange(n) * b1[: nb * stride].reshape(nb, stride)[:, 1:]
         return np.maximum(v, 0.0)
 
-    def expected(self, rng_: F64, cos2: F64, diffuse: F64, surface: NDArray[np.int32]) -> F64:
-        """Expected bin energy (steps 1-3) before speckle, noise and gain; beam-major (n_beams, n_bins)."""
+    def expected(self, rng_: F64, cos2: F64, diffuse: F64, surface: NDArray[np.int32]) -> F32:
+        """Expected bin energy (steps 1-3) before speckle, noise and gain; beam-major (n_beams, n_bins),
+        float32 after the integral (ample for an 8-bit log image)."""
         e = self.sample_energy(rng_, cos2, diffuse, surface >= 0)
-        img = self.integrate(rng_, e, surface)
+        img = self.integrate(rng_, e, surface).astype(np.float32)
         img = spread_in_range(img, self.p.pulse_m / self.g.bin_width)
         return spread_across_beams(img, self.mixing)
 
-    def display(self, energy: F64, rng: np.random.Generator | None) -> U8:
+    def display(self, energy: F32 | F64, rng: np.random.Generator | None) -> U8:
         """Speckle, noise, interference and gain (step 4) of beam-major energies; the 8-bit log display
         as the image ``[range bin, beam]``."""
         p = self.p
-        energy32 = energy.astype(np.float32)
+        energy32 = energy.astype(np.float32, copy=False)
         if rng is None:
             power = energy32 + self.noise
         else:
