@@ -342,6 +342,7 @@ def test_cli_record_duration(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert all((b - a) % 128 == 3 for a, b in itertools.pairwise(seq2))
 
 
+@pytest.mark.slow
 def test_cli_record_stops_cleanly_on_sigint(tmp_path: Path) -> None:
     out = tmp_path / "rec.mcap"
     with PtyPair() as fog, PtyPair() as fog2:

@@ -40,6 +40,7 @@ def small_log(tmp_path_factory: pytest.TempPathFactory) -> tuple[bytes, list[tup
     return path.read_bytes(), written
 
 
+@pytest.mark.slow
 def test_cut_at_every_97_bytes(tmp_path: Path, small_log: tuple[bytes, list[tuple[int, bytes]]]) -> None:
     data, written = small_log
     with MissionLogReader(_write(tmp_path / "full.mcap", data)) as full:
@@ -69,6 +70,7 @@ def test_cut_at_every_97_bytes(tmp_path: Path, small_log: tuple[bytes, list[tupl
 Small = tuple[bytes, list[tuple[int, bytes]]]
 
 
+@pytest.mark.slow
 def test_cut_logs_replay_and_info_never_raise(tmp_path: Path, small_log: Small) -> None:
     data, written = small_log
     cut_path = tmp_path / "cut.mcap"

@@ -200,6 +200,7 @@ def _wait(cond: Any, timeout: float) -> bool:
     return cond()
 
 
+@pytest.mark.live
 def test_live_ports_and_replay_route_the_same_samples_through_the_adaptor(
         mission: tuple[Path, Counter[str]], routed: list[tuple[int, str, str | None]], tmp_path: Path) -> None:
     """The mission's bytes written on real ports (ptys, a TCP socket) to ``LiveRun``, and the mission

@@ -62,6 +62,7 @@ def no_leftovers(folder: Path) -> None:
 
 
 # -- existing outputs ----------------------------------------------------------------------------
+@pytest.mark.slow
 def test_sim_keeps_an_existing_log_unless_forced(tmp_path: Path, small_log: Path) -> None:
     out = tmp_path / "mission.mcap"
     out.write_bytes(b"a day of ship time")
@@ -74,6 +75,7 @@ def test_sim_keeps_an_existing_log_unless_forced(tmp_path: Path, small_log: Path
     no_leftovers(tmp_path)
 
 
+@pytest.mark.slow
 def test_record_keeps_an_existing_log_unless_forced(tmp_path: Path, small_log: Path) -> None:
     cfg = tmp_path / "loop.toml"
     cfg.write_text(LOOP_CONFIG)
@@ -90,6 +92,7 @@ def test_record_keeps_an_existing_log_unless_forced(tmp_path: Path, small_log: P
     no_leftovers(tmp_path)
 
 
+@pytest.mark.slow
 def test_live_refuses_a_folder_holding_a_mission(tmp_path: Path, small_log: Path) -> None:
     cfg = tmp_path / "loop.toml"
     cfg.write_text(LOOP_CONFIG)
@@ -116,6 +119,7 @@ def test_live_refuses_a_folder_holding_a_mission(tmp_path: Path, small_log: Path
     no_leftovers(out)
 
 
+@pytest.mark.slow
 def test_log_import_refuses_its_own_input_and_an_existing_log(tmp_path: Path, small_log: Path) -> None:
     src = tmp_path / "m.mcap"
     src.write_bytes(small_log.read_bytes())
@@ -148,6 +152,7 @@ def test_log_import_refuses_its_own_input_and_an_existing_log(tmp_path: Path, sm
 
 
 # -- outputs checked before any work ---------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["replay", "export"])
 def test_replay_and_export_check_the_output_before_any_work(tmp_path: Path, small_log: Path, command: str) -> None:
     a_file = tmp_path / "a-file"
@@ -174,6 +179,7 @@ def test_replay_and_export_check_the_output_before_any_work(tmp_path: Path, smal
     no_leftovers(tmp_path)
 
 
+@pytest.mark.slow
 def test_export_with_force_replaces_its_files_and_keeps_the_others(tmp_path: Path, small_log: Path) -> None:
     out = tmp_path / "export"
     (out / "sonar").mkdir(parents=True)
@@ -188,6 +194,7 @@ def test_export_with_force_replaces_its_files_and_keeps_the_others(tmp_path: Pat
     no_leftovers(tmp_path)
 
 
+@pytest.mark.slow
 def test_demo_train_and_eval_refuse_existing_outputs(tmp_path: Path) -> None:
     demo = tmp_path / "demo-out"
     demo.mkdir()
@@ -201,6 +208,7 @@ def test_demo_train_and_eval_refuse_existing_outputs(tmp_path: Path) -> None:
 
 
 # -- a full disk (a file-size limit in the child: writes past it fail with EFBIG) ------------------
+@pytest.mark.slow
 def test_sim_on_a_full_disk_is_one_line_and_leaves_the_old_log(tmp_path: Path, small_log: Path) -> None:
     out = tmp_path / "m.mcap"
     out.write_bytes(small_log.read_bytes())
@@ -210,6 +218,7 @@ def test_sim_on_a_full_disk_is_one_line_and_leaves_the_old_log(tmp_path: Path, s
     no_leftovers(tmp_path)
 
 
+@pytest.mark.slow
 def test_replay_and_export_on_a_full_disk_are_one_line_and_write_nothing(tmp_path: Path, small_log: Path) -> None:
     one_error_line(auvlink("log", "export", small_log, "--out", tmp_path / "e", limit=20_000), "File too large")
     one_error_line(auvlink("replay", small_log, "--out", tmp_path / "r", "--quiet", limit=20_000),
@@ -217,6 +226,7 @@ def test_replay_and_export_on_a_full_disk_are_one_line_and_write_nothing(tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_record_on_a_full_disk_keeps_the_log_readable(tmp_path: Path) -> None:
     cfg = vehicle_config(tmp_path)
     out = tmp_path / "rec.mcap"

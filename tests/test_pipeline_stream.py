@@ -21,6 +21,8 @@ from logs_format import MissionLogReader, Replay
 from recon.nav import DepthSamples, DvlSamples, GyroSamples, dead_reckon
 from recon.nav_stream import CausalNavigator
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def mission(tmp_path_factory: pytest.TempPathFactory) -> Path:

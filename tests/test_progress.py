@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from scenes import obj, scene_toml
 
 from auvlink.progress import on_terminal, progress_bar
@@ -19,6 +20,7 @@ TINY = scene_toml(seabed={"depth": 15.0, "roughness": None, "slope_deg": None, "
                   sonar={"window_length": 8.0, "fps": 2.0})
 
 
+@pytest.mark.slow
 def test_sim_with_stderr_in_a_file_writes_no_progress_bar(tmp_path: Path) -> None:
     scene = tmp_path / "tiny.toml"
     scene.write_text(TINY)

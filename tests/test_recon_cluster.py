@@ -135,6 +135,7 @@ def _late_brute(objs: list[np.ndarray], p: np.ndarray, eps: float, gap: float) -
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 2**31), st.sampled_from([0.0, 0.8, 2.5]), st.sampled_from([0.3, 0.5, 1.0]),
        st.sampled_from([0.0, 1e6]), st.sampled_from([None, 0.5, 3.0]))
+@pytest.mark.slow
 def test_finalized_index_matches_brute_force(seed: int, gap: float, eps: float, far: float,
                                              cell: float | None) -> None:
     from recon.cluster_index import FinalizedIndex
