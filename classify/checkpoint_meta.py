@@ -145,8 +145,6 @@ def _allowed(key: str, default: str = "see classify/checkpoint_meta.py") -> str:
         return "true or false"
     if bare in {f"calibration.{k}" for k in CalibrationMeta.model_fields}:
         return "text" if bare.endswith("_source") else "a number in [0, 1]"
-    if "." not in bare and bare not in CheckpointMeta.model_fields and bare != "model_config":
-        return f"the keys {', '.join(CheckpointMeta.model_json_schema(by_alias=True)['properties'])}"
     return default
 
 
@@ -202,7 +200,13 @@ def check_checkpoint(doc: Any, path: Path | str) -> CheckpointMeta:
     except ValidationError as exc:
         err = exc.errors(include_url=False)[0]
         key = _key(tuple(err["loc"])) or "<checkpoint>"
-        raise field_error(path, key, err.get("input"), err["msg"].removeprefix("Value error, ")) from exc
+        allowed = None
+        if err["type"] == "extra_forbidden":  # an unknown key: the keys of its table
+            table = NetworkMeta if key.startswith("model_config.") else CheckpointMeta
+            allowed = f"the keys {', '.join(table.model_json_schema(by_alias=True)['properties'])}"
+        if err["type"] == "missing":
+            raise CheckpointError(f"{path}: checkpoint field {key!r} is missing (allowed: {_allowed(key)})") from exc
+        raise field_error(path, key, err.get("input"), err["msg"].removeprefix("Value error, "), allowed) from exc
     names, n_out = meta.class_names, meta.network.num_classes
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)

@@ -46,6 +46,13 @@ def _set(table: str, key: str, value: Any) -> Edit:
     return lambda d: d[table].__setitem__(key, value)
 
 
+def _nested(depth: int) -> list[Any]:
+    out: list[Any] = [1]
+    for _ in range(depth):
+        out = [out]
+    return out
+
+
 SHIPPED_NAMES = ["reef_a", "reef_b", "reef_c", "sphere", "hemisphere", "pipe", "half_pipe", "box", "clutter"]
 CASES: dict[str, tuple[Edit, str]] = {
     "traversal": (_names(["/../../somewhere/x", *SHIPPED_NAMES[1:]]), "class_names[0]"),
@@ -74,6 +81,10 @@ CASES: dict[str, tuple[Edit, str]] = {
     "metrics_nan": (lambda d: d["metrics"]["history"][2].__setitem__("val_loss", math.nan),
                     "metrics.history[2].val_loss"),
     "unknown_key": (lambda d: d.__setitem__("payload", 1), "payload"),
+    "unknown_network_key": (_set("model_config", "heads", 3), "model_config.heads"),
+    "missing": (lambda d: d.pop("n_points"), "n_points"),
+    "too_deep": (lambda d: d["metrics"].__setitem__("a", _nested(40)), "metrics.a" + "[0]" * 32),
+    "too_many_members": (lambda d: d.__setitem__("members", d["members"] * 17), "members"),
     "members_not_tables": (lambda d: d.__setitem__("members", ["x"]), "members[0]"),
     "weights_nan": (lambda d: d.__setitem__("state_dict", {**d["state_dict"], "classifier.bias":
                                                            torch.full((9,), math.nan)}), "state_dict.classifier.bias"),
