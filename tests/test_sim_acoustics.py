@@ -15,6 +15,7 @@ from auvlink.errors import ConfigError
 from auvlink.sim.acoustic_image import (
     AcousticImager,
     beam_mixing,
+    speckle_table,
     spread_across_beams,
     spread_in_range,
     vertical_pattern,
@@ -187,6 +188,31 @@ def test_pulse_smears_a_point_over_its_length(pulse_bins: float) -> None:
     assert lit[-1] - lit[0] + 1 == math.ceil(pulse_bins)
     assert out[1].sum() == pytest.approx(1.0)
     assert out[1, 100] == pytest.approx(1.0 / pulse_bins)
+
+
+# --- speckle, TVG error ------------------------------------------------------------------------
+@pytest.mark.parametrize(("looks", "texture"), [(1.0, 0.0), (2.0, 0.0), (1.0, 2.0)])
+def test_speckle_tables_have_unit_mean(looks: float, texture: float) -> None:
+    table = speckle_table(looks, texture).astype(float)
+    assert table.mean() == pytest.approx(1.0, abs=0.02)
+    assert np.all(np.diff(table) >= 0.0)  # quantiles, ascending
+    if looks == 1.0 and texture == 0.0:  # Rayleigh amplitude: exponential intensity
+        q = (np.arange(65536) + 0.5) / 65536.0
+        assert np.allclose(table, -np.log1p(-q), rtol=1e-5, atol=1e-9)
+
+
+def test_k_texture_has_a_heavier_tail_than_rayleigh() -> None:
+    assert speckle_table(1.0, 2.0)[-66] > 1.3 * speckle_table(1.0, 0.0)[-66]  # the 99.9th percentile
+
+
+def test_tvg_error_tilts_the_level_along_range() -> None:
+    im = _imager(tvg_error_db_per_m=-2.0)
+    exact = _imager()
+    n = im.g.n_rays
+    r = np.where(np.arange(n) % 2 == 1, 9.0, 3.0)  # the centre elevation's rays: indices 32 * 96 + (0, 1)
+    args = (r, np.full(n, 0.5), np.full(n, 1e-3), np.zeros(n, bool))
+    ratio = (im.sample_energy(*args) / exact.sample_energy(*args))[32 * 96:32 * 96 + 2]
+    assert 10.0 * np.log10(ratio[1] / ratio[0]) == pytest.approx(-12.0)
 
 
 # --- gain, interference -----------------------------------------------------------------------
