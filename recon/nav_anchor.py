@@ -27,7 +27,9 @@ antenna in the body frame, so the fixes of a vehicle that moves or rolls on the 
 by at most :func:`drift_bound_m`: ``closure_base_m`` (the fix scatter: each anchor is a mean of fixes
 within ``max_gate_m`` of their median, so two anchors differ by at most twice that) plus the distance
 travelled (dead-reckoned path, m) x (DVL scale accuracy + sin(start heading error + gyro bias drift x
-mission time)). A fix after surfacing whose residual is farther than that from the start anchor is not
+mission time)) plus, for the time the DVL had no bottom (dead reckoning without velocity), that time x
+the fastest ground speed dead reckoning saw since the dive (at least ``unaided_speed_mps``): all of that
+distance may be lost. A fix after surfacing whose residual is farther than that from the start anchor is not
 used (``beyond_dead_reckoning``); when every such fix is (at least ``min_fixes``), the closure is
 *refused*: no correction, the dead-reckoned track with the start anchor is kept, and :meth:`GnssAnchor.summary`
 says so (``closure_refused``: the disagreement, the bound, the fixes).
@@ -73,12 +75,15 @@ class AnchorConfig:
     gate_sigmas: float = 5.0
     min_fixes: int = 3
     closure_base_m: float = 20.0  # the fix scatter allowed between two anchors: twice max_gate_m
+    unaided_speed_mps: float = 1.5  # the least speed assumed without bottom track (a survey AUV's cruise speed)
 
 
-def drift_bound_m(distance_m: float, duration_s: float, cfg: AnchorConfig) -> float:
-    """The most dead reckoning can drift (m) over ``distance_m`` travelled in ``duration_s`` (module doc)."""
+def drift_bound_m(distance_m: float, duration_s: float, cfg: AnchorConfig, unaided_m: float = 0.0) -> float:
+    """The most dead reckoning can drift (m) over ``distance_m`` travelled in ``duration_s`` (module doc), plus
+    ``unaided_m``: what the vehicle may have travelled while the DVL had no bottom (all of it may be lost)."""
     heading = math.radians(START_HEADING_ERROR_DEG + GYRO_DRIFT_DEG_PER_H * max(duration_s, 0.0) / 3600.0)
-    return cfg.closure_base_m + max(distance_m, 0.0) * (DVL_SCALE_ACCURACY + math.sin(min(heading, math.pi / 2)))
+    aided = max(distance_m, 0.0) * (DVL_SCALE_ACCURACY + math.sin(min(heading, math.pi / 2)))
+    return cfg.closure_base_m + aided + max(unaided_m, 0.0)
 
 
 def robust_mean(r: F64, cfg: AnchorConfig) -> tuple[F64 | None, NDArray[np.bool_]]:
@@ -122,6 +127,7 @@ class GnssAnchor:
         self.beyond = _Fixes()  # fixes after surfacing farther from the start anchor than dead reckoning allows
         self.bound_m: float | None = None  # the drift bound at the last fix after surfacing
         self.travelled_m: float | None = None  # the dead-reckoned path from the dive to that fix
+        self.unaided_m = 0.0  # of which the vehicle may have gone this far without bottom track
         self._resurfaced_then_dived = False
 
     # ------------------------------------------------------------------ input
@@ -142,11 +148,13 @@ class GnssAnchor:
         self.counts[reason] = self.counts.get(reason, 0) + n
 
     def add_fix(self, t: float, fix_ne: ArrayLike, hdop: float, position_d: ArrayLike | None,
-                rotation: Any = None, depth: float | None = None, travelled_m: float | None = None) -> bool:
+                rotation: Any = None, depth: float | None = None, travelled_m: float | None = None,
+                unaided_m: float = 0.0) -> bool:
         """One fix with a position (antenna, W north/east m) at ``t``; ``position_d`` the dead-reckoned
         body position (frame D) at t and ``rotation`` R_WB (scipy, one) there, ``depth`` the navigation
         depth (m), ``travelled_m`` the dead-reckoned path (m) from the dive to t (None: not checked against
-        :func:`drift_bound_m`). Returns whether it was used."""
+        :func:`drift_bound_m`) and ``unaided_m`` the distance the vehicle may have gone without bottom track
+        in that time. Returns whether it was used."""
         cfg = self.config
         fix = np.asarray(fix_ne, dtype=np.float64).ravel()[:2]
         if not np.all(np.isfinite(fix)):
@@ -175,7 +183,8 @@ class GnssAnchor:
             return True
         start = self.start_anchor
         if start is not None and travelled_m is not None:
-            self.bound_m, self.travelled_m = drift_bound_m(travelled_m, t - self.t_dive, cfg), travelled_m
+            self.bound_m = drift_bound_m(travelled_m, t - self.t_dive, cfg, unaided_m)
+            self.travelled_m, self.unaided_m = travelled_m, unaided_m
             if float(np.hypot(*(r - start))) > self.bound_m:
                 self.counts["beyond_dead_reckoning"] += 1
                 self.beyond.add(t, r, fix)
@@ -218,7 +227,7 @@ class GnssAnchor:
             return None
         c = off - start
         return {"closure_ne_m": [float(v) for v in c], "closure_m": float(np.hypot(*c)), "bound_m": self.bound_m,
-                "travelled_m": self.travelled_m, "fixes": int(inl.sum())}
+                "travelled_m": self.travelled_m, "unaided_m": self.unaided_m, "fixes": int(inl.sum())}
 
     @property
     def t_surfaced(self) -> float | None:

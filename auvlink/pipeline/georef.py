@@ -51,7 +51,7 @@ class _Pending(NamedTuple):
     t: float
     fix: GnssPayload
     pose: tuple[Any, Any] | None  # (position (1, 3) in D, R_WB) at t, None before navigation
-    travelled_m: float | None
+    travelled: tuple[float, float] | None  # (dead-reckoned path, unaided distance) m since the dive
 
 
 def gnss_payload(fmt_record: Any, seen_gga: bool) -> GnssPayload | None:
@@ -79,6 +79,7 @@ class Georef:
         self.fixes_ne: list[tuple[float, float, float]] = []  # (t, north, east) of every fix the anchor took
         self._pending: list[_Pending] = []  # fixes waiting for a datum (no [site])
         self._path: tuple[float, float, F64] | None = None  # (t, path m since the dive, D position) at the last fix
+        self._unaided = 0.0  # m the vehicle may have gone without bottom track from the dive to surfacing
         self._warned = False
 
     def on_depth(self, t: F64, depth: F64) -> None:
@@ -98,9 +99,11 @@ class Georef:
             return
         self._use(item)
 
-    def _travelled(self, t: float, pose: tuple[Any, Any] | None, nav: Any) -> float | None:
-        """Dead-reckoned path (m) from the dive to ``t``: the navigator's track up to the first fix after the
-        dive, then the chord from fix to fix (seconds apart on the surface). None before the dive."""
+    def _travelled(self, t: float, pose: tuple[Any, Any] | None, nav: Any) -> tuple[float, float] | None:
+        """Dead-reckoned path (m) from the dive to ``t`` (the navigator's track up to the first fix after the
+        dive, then the chord from fix to fix, seconds apart on the surface), and the distance (m) the vehicle
+        may have gone without bottom track in that time (navigator altitude stale: the time x the fastest
+        dead-reckoned ground speed, at least the anchor's ``unaided_speed_mps``). None before the dive."""
         t_dive = self.anchor.t_dive
         if pose is None or t_dive is None or t < t_dive:
             return None
@@ -108,13 +111,17 @@ class Georef:
         if self._path is None:
             tg, pos = nav.positions(1)
             keep = (tg >= t_dive) & (tg <= t)
-            q = np.vstack([pos[keep, :2], p[None, :]])
-            length = float(np.sum(np.hypot(*np.diff(q, axis=0).T)))
+            tk, q = np.append(tg[keep], t), np.vstack([pos[keep, :2], p[None, :]])
+            step, dt = np.hypot(*np.diff(q, axis=0).T), np.diff(tk)
+            stale = ~np.isfinite(nav.altitude_at(tk[1:])) if dt.size else np.zeros(0, bool)
+            speed = float(np.max(step / np.maximum(dt, 1e-3), initial=0.0))
+            self._unaided = float(dt[stale].sum()) * max(speed, self.anchor.config.unaided_speed_mps)
+            length = float(step.sum())
         else:
             t_last, length, p_last = self._path
             length += float(np.hypot(*(p - p_last))) if t >= t_last else 0.0
         self._path = (t, length, p)
-        return length
+        return length, self._unaided
 
     def _datum_from_pending(self) -> None:
         """The datum from the robust mean of the first DATUM_FIXES fixes that agree (module docstring)."""
@@ -155,8 +162,9 @@ class Georef:
             self.anchor.add_fix(item.t, (n, e), fix.hdop, None)
             return
         pos, rot = item.pose
-        if self.anchor.add_fix(item.t, (n, e), fix.hdop, pos[0], rot, depth=float(pos[0, 2]),
-                               travelled_m=item.travelled_m):
+        path, unaided = item.travelled if item.travelled is not None else (None, 0.0)
+        if self.anchor.add_fix(item.t, (n, e), fix.hdop, pos[0], rot, depth=float(pos[0, 2]), travelled_m=path,
+                               unaided_m=unaided):
             self.fixes_ne.append((item.t, n, e))
 
     # ------------------------------------------------------------------ D -> W
@@ -217,7 +225,8 @@ class Georef:
             return None
         return (f"GNSS closure refused: the fixes after surfacing put the vehicle {r['closure_m']:.0f} m from its "
                 f"dead-reckoned track, more than navigation can drift ({r['bound_m']:.0f} m over "
-                f"{r['travelled_m']:.0f} m travelled); the dead-reckoned track is kept")
+                f"{r['travelled_m']:.0f} m travelled, {r['unaided_m']:.0f} m of it possibly without bottom track); "
+                "the dead-reckoned track is kept")
 
     def finalize(self, detections: list[Any], applied: dict[int, F64], epoch: float) -> None:
         """Move every detection (position and points) to the corrected track at its middle time;
