@@ -2,7 +2,7 @@
 
 The vehicle configuration (:mod:`auvlink.config`), the scene (:mod:`auvlink.sim.scene`), the
 simulator settings (:mod:`auvlink.sim.settings`) and the classifier's training settings
-(:mod:`classify.config`) are described by pydantic models (dataclasses or ``BaseModel``) built from
+(:mod:`classify.training.config`) are described by pydantic models (dataclasses or ``BaseModel``) built from
 the pieces here: every table forbids unknown keys, numbers are strict (no ``"30"`` for 30, no
 ``true`` for 1, finite), sizes are bounded. :func:`validate` turns pydantic's errors into one
 :class:`~auvlink.errors.ConfigError` of the project's form::

@@ -36,10 +36,10 @@ import numpy as np
 import torch
 from _common import best_time, script_main, smoke, table, write_json
 
-from classify.dataset import catalog_meshes, default_cache_dir, heldout_settings, synthesize_set
 from classify.infer import DEFAULT_MODEL, Classifier
 from classify.pointnet import PointNet, PointNetConfig
-from classify.synthesis import SynthesisSettings, normalize_cloud
+from classify.training.dataset import catalog_meshes, default_cache_dir, heldout_settings, synthesize_set
+from classify.training.synthesis import SynthesisSettings, normalize_cloud
 
 THREADS = 2
 
@@ -111,9 +111,9 @@ def _robustness(clf: Classifier, quick: bool, cache: Path) -> dict[str, list[dic
 
 
 def _baseline2d(clf: Classifier, quick: bool, cache: Path) -> dict[str, Any]:
-    from classify.baseline2d import CNNConfig
-    from classify.baseline_eval import run_baseline2d
-    from classify.baseline_images import ImageSettings
+    from classify.training.baseline2d import CNNConfig
+    from classify.training.baseline_eval import run_baseline2d
+    from classify.training.baseline_images import ImageSettings
 
     images = ImageSettings() if not quick else ImageSettings(headings_deg=tuple(float(h) for h in range(0, 360, 40)),
                                                              tilts_deg=(20.0, 45.0))
@@ -171,8 +171,8 @@ def _tradeoffs(clf: Classifier, clouds: list[Any], full: bool, cache: Path) -> l
         rows.append({"knob": "points per cloud", "setting": n, "time_s": t / 1e3, "time_unit": unit,
                      "error": _error(clf, clouds, n), "error_name": err_name, "default": n == clf.n_points})
     if full:
-        from classify.config import load_train_settings
-        from classify.workflow import train_and_save
+        from classify.training.config import load_train_settings
+        from classify.training.workflow import train_and_save
 
         base = load_train_settings(quick=True)
         for w in (0.125, 0.25, 0.5, 1.0):
@@ -195,7 +195,7 @@ def run(quick: bool, out_dir: Path) -> dict[str, Any]:
         model_note = str(DEFAULT_MODEL.name)
     else:  # timing still means something on untrained weights; accuracy does not
         from classify.checkpoint import Checkpoint
-        from classify.config import load_train_settings
+        from classify.training.config import load_train_settings
 
         s = load_train_settings()
         net = PointNet(PointNetConfig(num_classes=8, width=s.train.width)).eval()

@@ -4,7 +4,7 @@ class probabilities, so ``softmax`` of it is that mean and ``argmax`` its most p
 Models trained with the same settings from different seeds disagree most at the class boundaries that the
 seabed's texture blurs (hemisphere / box, reef_b / reef_a) and on the clutter threshold; their mean is steadier
 than any one of them. ``[train] members`` sets how many a checkpoint holds (the first plus ``members - 1``
-further seeds, :func:`classify.workflow.train_and_save`); :mod:`classify.checkpoint` saves them in one file.
+further seeds, :func:`classify.training.workflow.train_and_save`); :mod:`classify.checkpoint` saves them in one file.
 """
 
 from __future__ import annotations

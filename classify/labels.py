@@ -1,5 +1,5 @@
 """The classifier's labels beyond the object catalogue: ``clutter`` (not an object: what recon makes of a rough
-seabed, :mod:`classify.clutter_synth`). A scene cannot place clutter; only the classifier names it."""
+seabed, :mod:`classify.training.clutter_synth`). A scene cannot place clutter; only the classifier names it."""
 
 from __future__ import annotations
 

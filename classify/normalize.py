@@ -1,6 +1,6 @@
 """How a cloud (metres) becomes the classifier's input: unit sphere, or a fixed scale with z the height above the
-seabed (:class:`classify.synthesis_settings.SynthesisSettings` ``scale_m`` and ``z_ref``); shared by synthesis and
-inference."""
+seabed (:class:`classify.training.synthesis_settings.SynthesisSettings` ``scale_m`` and ``z_ref``); shared by synthesis
+and inference."""
 
 from __future__ import annotations
 

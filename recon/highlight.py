@@ -68,7 +68,8 @@ class HighlightPoints:
 
 def span_bins(min_run: int, span_m: float, bin_m: float) -> int:
     """``span_m`` of range in bins of ``bin_m`` m, at least ``min_run``: the span of the return rule (the module
-    doc), shared with the classifier's synthesis (:attr:`classify.synthesis_settings.SynthesisSettings.span_bins`)."""
+    doc), shared with the classifier's synthesis
+    (:attr:`classify.training.synthesis_settings.SynthesisSettings.span_bins`)."""
     run = max(1, min_run)
     return max(run, round(span_m / bin_m)) if bin_m > 0 else run
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from classify.baseline2d import CNNConfig, ImageSet, SmallCNN, predict_cnn, random_shift, train_cnn
+from classify.training.baseline2d import CNNConfig, ImageSet, SmallCNN, predict_cnn, random_shift, train_cnn
 
 torch.set_num_threads(1)
 
@@ -45,7 +45,7 @@ def test_toy_training_beats_chance() -> None:
 
 def test_rendered_images_shape_and_determinism() -> None:
     pytest.importorskip("auvlink.sim.sonar_render")
-    from classify.baseline_images import ImageSettings, heldout_image_settings, render_images
+    from classify.training.baseline_images import ImageSettings, heldout_image_settings, render_images
 
     s = ImageSettings(headings_deg=(30.0,), tilts_deg=(30.0,))
     a = render_images(("box",), s)

@@ -14,12 +14,12 @@ import torch
 
 from auvlink.sim.scene import CLASSES
 from classify.checkpoint import load_checkpoint, save_checkpoint
-from classify.clutter_synth import clutter_clouds, synthesize_clutter
-from classify.config import load_train_settings
 from classify.infer import DEFAULT_MODEL, Classifier
 from classify.labels import CLUTTER, with_clutter
 from classify.pointnet import PointNet, PointNetConfig
-from classify.scan_synth import energy_first_return
+from classify.training.clutter_synth import clutter_clouds, synthesize_clutter
+from classify.training.config import load_train_settings
+from classify.training.scan_synth import energy_first_return
 from recon.pipeline import ReconConfig
 from recon.target_envelope import MAX_OBJECT_EXTENT_M
 

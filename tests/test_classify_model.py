@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import torch
 
-from classify.augment import AugmentConfig, augment_batch, point_dropout, random_yaw
 from classify.checkpoint import load_checkpoint, save_checkpoint
 from classify.errors import CheckpointError, InvalidCloudError, SynthesisError
-from classify.evaluate import EvalReport, plot_confusion
 from classify.infer import Classifier, check_cloud
 from classify.pointnet import PointNet, PointNetConfig, orthogonality_loss
+from classify.training.augment import AugmentConfig, augment_batch, point_dropout, random_yaw
+from classify.training.evaluate import EvalReport, plot_confusion
 
 torch.set_num_threads(1)
 
@@ -156,7 +156,7 @@ def test_eval_report_metrics(tmp_path: Path) -> None:
 
 
 def test_plane_cut_removes_one_side_and_rescales() -> None:
-    from classify.augment import normalize_batch, plane_cut
+    from classify.training.augment import normalize_batch, plane_cut
 
     x = normalize_batch(np.random.default_rng(0).normal(size=(5, 300, 3)).astype(np.float32))
     y = plane_cut(x, np.random.default_rng(1), prob=1.0, max_ratio=0.4)
@@ -168,8 +168,8 @@ def test_plane_cut_removes_one_side_and_rescales() -> None:
 
 
 def test_seabed_referenced_normalization_keeps_height() -> None:
-    from classify.augment import normalize_batch
-    from classify.synthesis import normalize_cloud
+    from classify.training.augment import normalize_batch
+    from classify.training.synthesis import normalize_cloud
 
     p = np.array([[10.0, 5.0, 19.0], [12.0, 7.0, 19.5]])  # NED: 1.0 and 0.5 m above a seabed at 20 m
     n = normalize_cloud(p, 2.0, "seabed", 20.0)

@@ -1,5 +1,6 @@
-"""Objects on rough seabeds (classify.object_patch_synth): the mesh lies on a drawn rough patch, the lines' rays meet
-it or the seabed, and recon's own seabed removal and clustering give the view the classifier is trained on."""
+"""Objects on rough seabeds (classify.training.object_patch_synth): the mesh lies on a drawn rough patch, the
+lines' rays meet it or the seabed, and recon's own seabed removal and clustering give the view the classifier is
+trained on."""
 
 from __future__ import annotations
 
@@ -12,10 +13,10 @@ import pytest
 from auvlink.sim.catalog import mesh_for
 from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
-from classify.config import load_train_settings
-from classify.dataset import _cache_key, heldout_settings
-from classify.object_patch_synth import _placed, object_patch_view, synthesize_object_patches
-from classify.seabed_returns import line_returns
+from classify.training.config import load_train_settings
+from classify.training.dataset import _cache_key, heldout_settings
+from classify.training.object_patch_synth import _placed, object_patch_view, synthesize_object_patches
+from classify.training.seabed_returns import line_returns
 
 SETTINGS = replace(load_train_settings().synthesis, seed=5, object_patch_views=2)
 

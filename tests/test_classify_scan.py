@@ -1,4 +1,4 @@
-"""Synthesis mode ``scan``: recon's highlight extension emulated from a mesh (classify.scan_synth)."""
+"""Synthesis mode ``scan``: recon's highlight extension emulated from a mesh (classify.training.scan_synth)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from classify.errors import SynthesisError
-from classify.scan_synth import N_BEAMS, scan_points, sonar_rays
-from classify.synthesis import MeshSynthesizer, SynthesisSettings
-from classify.views import scan_view
+from classify.training.scan_synth import N_BEAMS, scan_points, sonar_rays
+from classify.training.synthesis import MeshSynthesizer, SynthesisSettings
+from classify.training.views import scan_view
 
 H = 0.6  # box height
 SETTINGS = SynthesisSettings(mode="scan", altitude_m=(4.5, 4.5), lateral_m=(0.0, 0.0), min_cos=(0.0, 0.0),
@@ -83,7 +83,7 @@ def test_scan_without_highlight_raises() -> None:
 
 
 def test_arc_correction_raises_the_front_slope() -> None:
-    from classify.scan_synth import arc_vectors
+    from classify.training.scan_synth import arc_vectors
 
     tilt, spread = math.radians(30.0), math.radians(14.0)
     u, w = arc_vectors(0.4, tilt)
@@ -102,7 +102,7 @@ def test_arc_correction_raises_the_front_slope() -> None:
 
 
 def test_energy_first_return_sums_rays_per_bin() -> None:
-    from classify.scan_synth import energy_first_return
+    from classify.training.scan_synth import energy_first_return
 
     bin_m = 0.02
     # one position, one beam, 4 rays: two strike a face at 5.00-5.01 m (one bin), one grazes a top at 4.50 m
@@ -170,7 +170,7 @@ def test_fused_and_partial_views() -> None:
 def test_energy_first_return_span_rule_dense_equals_sparse(seed: int, run: int, span: int) -> None:
     """``min_run`` bins within ``span``: a comb of single-ray bins passes once the span holds two teeth, and the
     sparse search (long ranges) finds exactly what the dense one does."""
-    from classify import scan_synth
+    from classify.training import scan_synth
 
     rng = np.random.default_rng(seed)
     t = rng.uniform(4.0, 4.4, (3, 6, 5))
@@ -188,7 +188,7 @@ def test_energy_first_return_span_rule_dense_equals_sparse(seed: int, run: int, 
 
 
 def test_energy_first_return_finds_a_comb_within_the_span() -> None:
-    from classify.scan_synth import energy_first_return
+    from classify.training.scan_synth import energy_first_return
 
     # one beam, three rays striking a level top 4 bins apart (a comb): no two bins in a row
     t = np.array([[[4.005], [4.085], [4.165]]])

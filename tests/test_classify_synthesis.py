@@ -11,9 +11,9 @@ import numpy as np
 import open3d as o3d
 import pytest
 
-from classify.dataset import heldout_settings, synthesize_set
 from classify.errors import SynthesisError
-from classify.synthesis import (
+from classify.training.dataset import heldout_settings, synthesize_set
+from classify.training.synthesis import (
     MeshSynthesizer,
     SynthesisSettings,
     front_faces,

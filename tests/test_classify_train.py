@@ -10,14 +10,14 @@ import open3d as o3d
 import pytest
 import torch
 
-from classify.augment import AugmentConfig
 from classify.checkpoint import load_checkpoint
-from classify.config import TrainSettings, load_train_settings
-from classify.dataset import heldout_settings, synthesize_set
 from classify.infer import Classifier
-from classify.synthesis import SynthesisSettings
-from classify.train import TrainConfig, train
-from classify.workflow import evaluate_classifier, train_and_save
+from classify.training.augment import AugmentConfig
+from classify.training.config import TrainSettings, load_train_settings
+from classify.training.dataset import heldout_settings, synthesize_set
+from classify.training.synthesis import SynthesisSettings
+from classify.training.train import TrainConfig, train
+from classify.training.workflow import evaluate_classifier, train_and_save
 
 torch.set_num_threads(1)
 

@@ -19,7 +19,7 @@ from auvlink.errors import ConfigError, TransportInitError
 from auvlink.sim.scene import default_scene_text
 from auvlink.sim.settings import loads_settings
 from auvlink.transports.serial_port import parse_serial_url
-from classify.config import DEFAULT_CONFIG, load_train_settings
+from classify.training.config import DEFAULT_CONFIG, load_train_settings
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMAS = ROOT / "docs" / "schemas"

@@ -23,7 +23,7 @@ gives precision, recall and F1 at every threshold from 0.30 to 0.95, the best ma
 write a copy of the model with the best threshold (an existing file only with ``--force``).
 
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
-simulated sonar images of the same objects, viewing heading varied; :mod:`classify.baseline_eval`)
+simulated sonar images of the same objects, viewing heading varied; :mod:`classify.training.baseline_eval`)
 and write ``DIR/baseline2d.json`` and ``DIR/baseline2d_confusion.png`` beside the PointNet figures.
 
 DIR must be new or empty unless ``--force`` (checked before any work); each file is written under a
@@ -42,7 +42,7 @@ from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 
 if TYPE_CHECKING:
-    from classify.evaluate import EvalReport
+    from classify.training.evaluate import EvalReport
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -90,10 +90,10 @@ def _held_out(args: argparse.Namespace) -> int:
     if args.model is not None:
         for name in ("eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png"):
             check_output_file(args.out / name, force=True, inputs=[args.model], what="result")
-    from classify.dataset import default_cache_dir
-    from classify.evaluate import plot_confusion
     from classify.infer import Classifier
-    from classify.workflow import evaluate_classifier, heldout_set
+    from classify.training.dataset import default_cache_dir
+    from classify.training.evaluate import plot_confusion
+    from classify.training.workflow import evaluate_classifier, heldout_set
 
     clf = Classifier.load(args.model)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
@@ -122,10 +122,10 @@ def _held_out(args: argparse.Namespace) -> int:
 
 def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Path | None, pointnet: EvalReport) -> None:
     # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)
-    from classify.baseline2d import CNNConfig
-    from classify.baseline_eval import run_baseline2d
-    from classify.baseline_images import ImageSettings
-    from classify.evaluate import plot_confusion
+    from classify.training.baseline2d import CNNConfig
+    from classify.training.baseline_eval import run_baseline2d
+    from classify.training.baseline_images import ImageSettings
+    from classify.training.evaluate import plot_confusion
 
     out = run_baseline2d(class_names, ImageSettings(), CNNConfig(), cache, progress=True)
     rep = out.report

@@ -13,7 +13,7 @@ from typing import Any
 from auvlink.config import VehicleFile
 from auvlink.sim.settings import SceneDocument, SettingsTables
 from auvlink.validation import json_schema
-from classify.config import TrainFile
+from classify.training.config import TrainFile
 
 #: file name -> (model, title, description)
 SCHEMAS: dict[str, tuple[Any, str, str]] = {

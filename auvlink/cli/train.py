@@ -58,9 +58,9 @@ def run(args: argparse.Namespace) -> int:
             check_output_dir(args.calibrate_out, force=args.force, option="--calibrate-out")
     # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)
     from auvlink.evaluation.recon_eval import recon_metrics
-    from classify.config import load_train_settings, with_overrides
-    from classify.dataset import default_cache_dir
-    from classify.workflow import train_and_save
+    from classify.training.config import load_train_settings, with_overrides
+    from classify.training.dataset import default_cache_dir
+    from classify.training.workflow import train_and_save
 
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
                               args.threads)

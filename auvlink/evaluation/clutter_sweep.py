@@ -2,8 +2,8 @@
 
 The classifier calls a cluster ``clutter`` (not an object: not reported) when its probability of clutter reaches
 the checkpoint's ``clutter_threshold``. ``auvlink train`` sets that threshold from held-out synthesized clouds
-(:func:`classify.workflow.calibrate_clutter`), whose mix of objects and seabed patches is not a survey's. Here it
-is measured where it acts: every survey is replayed with no cluster called clutter (``run_log(...,
+(:func:`classify.training.workflow.calibrate_clutter`), whose mix of objects and seabed patches is not a survey's.
+Here it is measured where it acts: every survey is replayed with no cluster called clutter (``run_log(...,
 clutter_threshold=math.inf)``) while the engine records each classification's probability of clutter
 (``MissionResult.clutter_scores``, one per emission of an object id). :func:`apply_rule` then gives, for any
 threshold, exactly the detections a run at that threshold reports, by the engine's own rule: an emission whose

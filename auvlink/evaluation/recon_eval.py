@@ -32,8 +32,8 @@ from auvlink.pipeline.engine_config import default_recon_config
 from auvlink.progress import progress_bar
 from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng
-from classify.evaluate import EvalReport
 from classify.infer import Classifier
+from classify.training.evaluate import EvalReport
 from recon.pipeline import Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.trajectory import Trajectory
@@ -179,7 +179,7 @@ def horizontal_extent(points: npt.NDArray[np.float64]) -> float:
 
 
 def recon_metrics(cache_dir: Path | None = None, progress: bool = False) -> Callable[[Classifier], dict[str, Any]]:
-    """The check ``auvlink train --recon-eval`` adds to :func:`classify.workflow.train_and_save`: the trained
+    """The check ``auvlink train --recon-eval`` adds to :func:`classify.training.workflow.train_and_save`: the trained
     classifier on the clouds of :func:`standard_passes` (evaluation only, never training data)."""
 
     def run(clf: Classifier) -> dict[str, Any]:

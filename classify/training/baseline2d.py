@@ -3,7 +3,7 @@
 Input: one image per sample, ``(H, W)`` (range bins x beams), any dtype; it is scaled to [0, 1]
 (uint8 / 255, float as is) and kept at its own size (global average pooling at the end).
 Network: four ``conv3x3 -> BN -> ReLU -> maxpool2`` stages (16-32-64-64 channels times ``width``),
-global average pool, dropout, linear. Training mirrors :func:`classify.train.train`: stratified
+global average pool, dropout, linear. Training mirrors :func:`classify.training.train.train`: stratified
 validation split, Adam + one-cycle schedule, early stopping on validation accuracy, seeded.
 Augmentation: random shifts in range and beam (the object's place in the image is not a cue).
 """
@@ -21,8 +21,8 @@ import torch
 from torch import Tensor, nn
 
 from auvlink.progress import progress_bar
-from classify.dataset import stratified_split
 from classify.pointnet import default_device
+from classify.training.dataset import stratified_split
 
 
 @dataclass(frozen=True)

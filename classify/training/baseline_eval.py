@@ -6,9 +6,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from classify.baseline2d import CNNConfig, CNNResult, predict_cnn, train_cnn
-from classify.baseline_images import ImageSettings, heldout_image_settings, render_images
-from classify.evaluate import EvalReport
+from classify.training.baseline2d import CNNConfig, CNNResult, predict_cnn, train_cnn
+from classify.training.baseline_images import ImageSettings, heldout_image_settings, render_images
+from classify.training.evaluate import EvalReport
 
 
 @dataclass

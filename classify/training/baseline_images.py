@@ -24,7 +24,7 @@ import numpy as np
 from auvlink.progress import progress_bar
 from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
 from auvlink.sim.sonar_render import SonarRenderer
-from classify.baseline2d import ImageSet
+from classify.training.baseline2d import ImageSet
 
 
 @dataclass(frozen=True)

@@ -4,16 +4,17 @@ On a rough seabed (the simulator's model, :class:`auvlink.sim.seabed.SeabedSurfa
 0.5-8 m wavelength) a crest that faces the sonar returns before the seabed onset the fitted planes predict,
 and some of those highlight-extension returns stand higher above recon's textured seabed than its threshold:
 they become clusters, which the classifier must call ``clutter``. They are synthesized the way
-:mod:`classify.scan_synth` synthesizes object clouds, from the geometry alone (no sonar image is rendered):
+:mod:`classify.training.scan_synth` synthesizes object clouds, from the geometry alone (no sonar image is rendered):
 
-* **Patch and survey** (every value drawn per patch from :class:`classify.synthesis_settings.SynthesisSettings`):
-  a seabed of roughness ``clutter_roughness_m`` (m rms) and slope ``clutter_slope_deg`` (any azimuth), no
-  object; 2-3 lawnmower lines (``clutter_lines``, alternate directions, any heading) ``clutter_line_m`` long,
+* **Patch and survey** (every value drawn per patch from
+  :class:`classify.training.synthesis_settings.SynthesisSettings`): a seabed of roughness ``clutter_roughness_m``
+  (m rms) and slope ``clutter_slope_deg`` (any azimuth), no object; 2-3 lawnmower lines (``clutter_lines``,
+  alternate directions, any heading) ``clutter_line_m`` long,
   spaced ``clutter_spacing`` times the swath at the onset, at an altitude ``clutter_altitude_m`` above the
   mean plane, a tilt between the smallest and the largest of ``tilts_deg``, one frame every ``clutter_step_m``
   metres. Each line is shifted by a misalignment of ``misalign_m`` metres in a random direction (what dead
   reckoning leaves between lines).
-* **Returns per frame and beam** (:func:`classify.seabed_returns.line_returns`): each ray of the fan meets the
+* **Returns per frame and beam** (:func:`classify.training.seabed_returns.line_returns`): each ray of the fan meets the
   seabed; the returns summed per range bin against recon's threshold give the highlight-extension points before
   the onset, the seabed returns after it, and the DVL's bottom points.
 * **Recon's own code** (:func:`recon_clusters`) with its default settings (:class:`recon.pipeline.ReconConfig`):
@@ -41,13 +42,13 @@ import numpy.typing as npt
 from auvlink.progress import progress_bar
 from classify.errors import SynthesisError
 from classify.labels import CLUTTER
-from classify.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry
-from classify.synthesis_settings import SynthesisSettings
-from classify.views import training_cloud
+from classify.training.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry
+from classify.training.synthesis_settings import SynthesisSettings
+from classify.training.views import training_cloud
 from recon.cluster import DetectedObject, cluster
 from recon.front_slope import replace_on_arcs
-from recon.pipeline import ReconConfig
 from recon.poll_seabed import object_points, on_seabed
+from recon.pipeline import ReconConfig
 from recon.seabed_memory import SeabedMemory
 
 F64 = npt.NDArray[np.float64]
@@ -140,8 +141,9 @@ def clutter_clouds(settings: SynthesisSettings, rng: np.random.Generator, cfg: R
 
 def synthesize_clutter(settings: SynthesisSettings, count: int, progress: bool = False
                        ) -> tuple[npt.NDArray[np.float32], F64]:
-    """``count`` clutter clouds ``(count, n_points, 3)`` as training clouds (:func:`classify.views.training_cloud`)
-    and, per cloud, the heading and tilt (deg) of the patch's first line. Patch ``i`` draws from
+    """``count`` clutter clouds ``(count, n_points, 3)`` as training clouds
+    (:func:`classify.training.views.training_cloud`) and, per cloud, the heading and tilt (deg) of the patch's first
+    line. Patch ``i`` draws from
     ``SeedSequence([seed, crc32("clutter"), i])``; patches are drawn until ``count`` clusters came (a cluster
     that one line alone gave is not repeated as the fused cloud of all lines)."""
     crc = zlib.crc32(CLUTTER.encode())

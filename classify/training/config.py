@@ -18,11 +18,11 @@ from pydantic import ConfigDict, Field, create_model
 
 from auvlink.errors import ConfigError
 from auvlink.validation import CONFIG, Boolean, Integer, Number, Text, read_toml, validate
-from classify.augment import AugmentConfig
-from classify.synthesis import SynthesisSettings
-from classify.train import TrainConfig
+from classify.training.augment import AugmentConfig
+from classify.training.synthesis import SynthesisSettings
+from classify.training.train import TrainConfig
 
-DEFAULT_CONFIG = Path(__file__).resolve().parent / "data" / "train_default.toml"
+DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "data" / "train_default.toml"
 
 #: bounds of the training settings (ge, le) or ("gt", lo, le) where a size could exhaust memory
 _BOUNDS: dict[str, tuple[Any, ...]] = {

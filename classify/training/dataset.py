@@ -29,7 +29,7 @@ from auvlink.progress import progress_bar
 from auvlink.sim.catalog import CLASSES, mesh_for
 from classify.errors import SynthesisError
 from classify.labels import CLUTTER
-from classify.synthesis import MeshSynthesizer, SynthesisSettings
+from classify.training.synthesis import MeshSynthesizer, SynthesisSettings
 
 MeshSource = Callable[[str], tuple[npt.NDArray[Any], npt.NDArray[Any]]]
 CACHE_VERSION = 2
@@ -106,7 +106,7 @@ def _clutter_key(settings: SynthesisSettings, count: int) -> str:
     (recon's seabed removal and clustering, the simulator's seabed: a change there gives other clutter)."""
     import recon
     from auvlink.sim import seabed
-    from classify import clutter_synth, scan_synth, seabed_returns, views
+    from classify.training import clutter_synth, scan_synth, seabed_returns, views
 
     h = hashlib.sha256(json.dumps({"v": CACHE_VERSION, "class": CLUTTER, "count": count,
                                    "settings": settings.to_dict()}, sort_keys=True).encode())
@@ -118,7 +118,7 @@ def _clutter_key(settings: SynthesisSettings, count: int) -> str:
 
 def _patch_key(name: str, vertices: npt.NDArray[Any], triangles: npt.NDArray[Any], settings: SynthesisSettings) -> str:
     """Cache key of a class's views on rough patches: as :func:`_clutter_key`, with the class and its mesh."""
-    from classify import object_patch_synth
+    from classify.training import object_patch_synth
 
     h = hashlib.sha256(_clutter_key(settings, settings.object_patch_views).encode())
     h.update(name.encode())
@@ -147,7 +147,7 @@ def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: S
                    cache_dir: Path | None = None, progress: bool = False) -> CloudSet:
     """All classes from all directions of ``settings`` (cached under ``cache_dir`` when given); the class
     ``clutter`` (:data:`classify.labels.CLUTTER`) is ``clutter_clouds`` clouds of seabed patches
-    (:func:`classify.clutter_synth.synthesize_clutter`), not a mesh."""
+    (:func:`classify.training.clutter_synth.synthesize_clutter`), not a mesh."""
     pts, labels, meta, measured = [], [], [], []
     for label, name in enumerate(progress_bar(class_names, enabled=progress, desc="synthesize", leave=False)):
         is_clutter = name == CLUTTER
@@ -158,7 +158,7 @@ def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: S
                 _cache_key(name, vertices, triangles, settings)
             path = Path(cache_dir) / f"{name}-{key}.npz"
         if is_clutter:
-            from classify.clutter_synth import synthesize_clutter
+            from classify.training.clutter_synth import synthesize_clutter
 
             clouds, dirs = _cached(path, partial(synthesize_clutter, settings, settings.clutter_clouds, progress))
             measured.append(np.ones(len(clouds), bool))
@@ -166,7 +166,7 @@ def synthesize_set(class_names: Sequence[str], mesh_for: MeshSource, settings: S
             clouds, dirs = _cached(path, partial(synthesize_class, name, vertices, triangles, settings))
             measured.append(np.zeros(len(clouds), bool))
             if settings.object_patch_views > 0:
-                from classify.object_patch_synth import synthesize_object_patches
+                from classify.training.object_patch_synth import synthesize_object_patches
 
                 patch_path = None if cache_dir is None else \
                     Path(cache_dir) / f"{name}-patch-{_patch_key(name, vertices, triangles, settings)}.npz"

@@ -1,23 +1,23 @@
 """Objects on rough seabeds: what recon's own seabed removal and clustering make of a mesh lying on a drawn patch.
 
-:mod:`classify.scan_synth` synthesizes an object's passes over a flat seabed and models recon's seabed error by
+:mod:`classify.training.scan_synth` synthesizes an object's passes over a flat seabed and models recon's seabed error by
 augmentation (a depth shift, a tilt, a crest attached). On a rough seabed what recon hands the classifier depends on
 the texture under and around the object: the textured seabed fitted through it takes a bump under the object for
 seabed or the object's foot for a bump, crests beside it join its cluster, the seabed depth under it is off by the
-texture's height. Those views are synthesized here the way :mod:`classify.clutter_synth` synthesizes clutter, from
-the geometry alone (no sonar image is rendered), with recon's code doing the rest:
+texture's height. Those views are synthesized here the way :mod:`classify.training.clutter_synth` synthesizes clutter,
+from the geometry alone (no sonar image is rendered), with recon's code doing the rest:
 
-* **Patch, object, lines** (drawn per view from :class:`classify.synthesis_settings.SynthesisSettings`): a seabed
-  of roughness ``object_patch_roughness_m`` and slope ``clutter_slope_deg`` (any azimuth); the class's mesh at its
-  origin, any heading, resting on the seabed and tilted with its mean plane (as the simulator places objects,
+* **Patch, object, lines** (drawn per view from :class:`classify.training.synthesis_settings.SynthesisSettings`): a
+  seabed of roughness ``object_patch_roughness_m`` and slope ``clutter_slope_deg`` (any azimuth); the class's mesh at
+  its origin, any heading, resting on the seabed and tilted with its mean plane (as the simulator places objects,
   :func:`auvlink.sim.catalog.object_pose`); 1-3 lawnmower lines (``object_patch_lines``, alternate directions, any
   heading) at an altitude ``clutter_altitude_m``, a tilt between the smallest and the largest of ``tilts_deg``, one
   frame every ``clutter_step_m`` metres, spaced ``clutter_spacing`` times the swath at the onset, the first line
   at a lateral offset that puts the object anywhere in its swath. Each line runs from where its onset is
   ``object_patch_lead_m`` before the object to past it, and is shifted by a misalignment of ``misalign_m``.
-* **Returns**: :func:`classify.seabed_returns.line_returns` with the mesh as an obstacle (its material's return
+* **Returns**: :func:`classify.training.seabed_returns.line_returns` with the mesh as an obstacle (its material's return
   relative to steel's, :func:`auvlink.sim.catalog.class_material`).
-* **Recon**: :func:`classify.clutter_synth.recon_clusters`; the view is the cluster (per line or fused over
+* **Recon**: :func:`classify.training.clutter_synth.recon_clusters`; the view is the cluster (per line or fused over
   lines) holding the most points within the object's footprint, with the seabed depth recon gives it, after the
   front-slope correction blended by ``correction_blend``. A view whose cluster's centre lies more than
   ``object_patch_offset_m`` from the object (recon would report it elsewhere), or that gives none, is drawn again.
@@ -36,11 +36,11 @@ import numpy.typing as npt
 from auvlink.sim.catalog import class_material, object_pose
 from auvlink.sim.scene import SceneObject
 from auvlink.sim.seabed import SeabedSurface
-from classify.clutter_synth import recon_clusters
 from classify.errors import SynthesisError
-from classify.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry, relative_to_steel
-from classify.synthesis_settings import SynthesisSettings
-from classify.views import training_cloud
+from classify.training.clutter_synth import recon_clusters
+from classify.training.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry, relative_to_steel
+from classify.training.synthesis_settings import SynthesisSettings
+from classify.training.views import training_cloud
 from recon.front_slope import replace_on_arcs
 from recon.pipeline import ReconConfig
 
@@ -116,7 +116,7 @@ def object_patch_view(class_name: str, vertices: F64, triangles: npt.NDArray[np.
 def synthesize_object_patches(class_name: str, vertices: F64, triangles: npt.NDArray[np.integer],
                               settings: SynthesisSettings, count: int
                               ) -> tuple[npt.NDArray[np.float32], F64]:
-    """``count`` views of one class on rough patches as training clouds (:func:`classify.views.training_cloud`)
+    """``count`` views of one class on rough patches as training clouds (:func:`classify.training.views.training_cloud`)
     and their (heading, tilt) in degrees. View ``i`` draws from ``SeedSequence([seed, crc32(class), 7, i, try])``."""
     crc = zlib.crc32(class_name.encode())
     clouds: list[npt.NDArray[np.float32]] = []

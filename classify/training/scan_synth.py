@@ -1,6 +1,6 @@
 """Synthesis mode ``scan``: what recon's highlight extension makes of a mesh on a straight pass.
 
-Geometry only (the mesh; no sonar image is rendered). The paper's shear (:mod:`classify.synthesis`)
+Geometry only (the mesh; no sonar image is rendered). The paper's shear (:mod:`classify.training.synthesis`)
 models the front slope for one scan direction; here it arises from the beam geometry itself, as in
 the reconstruction (``recon.highlight``, exact mode):
 
@@ -35,7 +35,7 @@ the reconstruction (``recon.highlight``, exact mode):
   leaves part of the slope (its detections lag the geometric first return).
 
 Per view ``A``, ``L``, ``c_min`` and ``min_height_m`` are drawn uniformly from their ranges in
-:class:`classify.synthesis.SynthesisSettings` (``altitude_m``, ``lateral_m``, ``min_cos``,
+:class:`classify.training.synthesis.SynthesisSettings` (``altitude_m``, ``lateral_m``, ``min_cos``,
 ``min_height_m``). Every draw comes from the generator passed in.
 """
 
@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from classify.synthesis_settings import SynthesisSettings
+from classify.training.synthesis_settings import SynthesisSettings
 from recon.front_slope import replace_on_arcs
 from recon.range_arcs import arc_record
 

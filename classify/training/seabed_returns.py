@@ -1,13 +1,13 @@
 """The returns of one straight level line over the simulator's rough seabed (and, where given, an object's mesh), as
-recon's highlight search and seabed sampling see them: the ray model shared by :mod:`classify.clutter_synth`
-(seabed patches with no object) and :mod:`classify.object_patch_synth` (an object lying on a patch).
+recon's highlight search and seabed sampling see them: the ray model shared by :mod:`classify.training.clutter_synth`
+(seabed patches with no object) and :mod:`classify.training.object_patch_synth` (an object lying on a patch).
 
 Every ray of the fan (``clutter_rays_per_beam`` per beam) is intersected with the seabed
 (:meth:`auvlink.sim.seabed.SeabedSurface.intersect_soa`) and, with an obstacle, with its mesh (Open3D); its return
-is that of :func:`classify.scan_synth.energy_first_return` (the simulator's ``cos^2 / r^2``, speckle ``cos_jitter``,
-recon's threshold and run rule), times the reflection of what it met relative to the steel the object synthesis is
-calibrated on (:data:`auvlink.sim.catalog.MATERIALS`). A first return closer than the steepest ray's onset on the
-mean plane less ``onset_margin_m`` is a highlight-extension point, placed on the steepest ray (range lag
+is that of :func:`classify.training.scan_synth.energy_first_return` (the simulator's ``cos^2 / r^2``, speckle
+``cos_jitter``, recon's threshold and run rule), times the reflection of what it met relative to the steel the object
+synthesis is calibrated on (:data:`auvlink.sim.catalog.MATERIALS`). A first return closer than the steepest ray's
+onset on the mean plane less ``onset_margin_m`` is a highlight-extension point, placed on the steepest ray (range lag
 ``range_bias_m``, jitter ``range_sigma_m``); the first return in the band after the onset is a seabed return
 (recon's ``returns_between``), and the seabed under the vehicle a DVL bottom point.
 """
@@ -24,8 +24,8 @@ import numpy.typing as npt
 from auvlink.sim.catalog import MATERIALS, Material
 from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
-from classify.scan_synth import HALF_FOV_DEG, arc_vectors, energy_first_return, sonar_rays
-from classify.synthesis_settings import SynthesisSettings
+from classify.training.scan_synth import HALF_FOV_DEG, arc_vectors, energy_first_return, sonar_rays
+from classify.training.synthesis_settings import SynthesisSettings
 from recon.range_arcs import RangeArcs, arc_record
 from recon.seabed_memory import PLANE_BEAM_STEP, PLANE_FRAME_STEP, TEXTURE_BEAM_STEP
 
@@ -79,7 +79,7 @@ def line_returns(seabed: SeabedSurface, origins: F64, heading: float, tilt: floa
     """Returns of one straight level line over ``seabed`` (sonar at ``origins`` (P, 3), NED m); see the module doc.
 
     ``obstacle``: an Open3D ``RaycastingScene`` of an object's mesh (world NED m) and its return relative to
-    steel's (:mod:`classify.object_patch_synth`); a ray returns from whichever it meets first."""
+    steel's (:mod:`classify.training.object_patch_synth`); a ray returns from whichever it meets first."""
     spread = math.radians(settings.spread_deg)
     k = settings.clutter_rays_per_beam
     d, steep = sonar_rays(heading, tilt, spread, k)  # (k, beams, 3), (beams, 3)

@@ -55,8 +55,8 @@ import numpy.typing as npt
 
 from classify.errors import SynthesisError
 from classify.normalize import normalize_cloud, normalize_unit_sphere
-from classify.synthesis_settings import SynthesisSettings
-from classify.views import scan_view, training_cloud
+from classify.training.synthesis_settings import SynthesisSettings
+from classify.training.views import scan_view, training_cloud
 
 F64 = npt.NDArray[np.float64]
 F32 = npt.NDArray[np.float32]
@@ -193,7 +193,7 @@ class MeshSynthesizer:
              rng: np.random.Generator) -> tuple[F32, npt.NDArray[np.bool_]]:
         """One training cloud ``(n_points, 3)`` float32 in the unit sphere, and its noise mask.
 
-        Mode ``scan``: a view (:func:`classify.views.scan_view`: one pass, or fused passes, whole or partial)
+        Mode ``scan``: a view (:func:`classify.training.views.scan_view`: one pass, or fused passes, whole or partial)
         whose highlight extension gave fewer than 8 points is drawn again (up to 20 times; altitude, lateral
         offset and thresholds are drawn per pass); noise points are a fraction of the surface points found (a
         sparse cloud keeps its duplicates)."""

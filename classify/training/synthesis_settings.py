@@ -1,6 +1,6 @@
 """How training clouds are synthesized: :class:`SynthesisSettings` (stored in checkpoints, hashed for the
-synthesized-cloud cache key), shared by both synthesis modes (:mod:`classify.synthesis`, mode ``paper``;
-:mod:`classify.scan_synth`, mode ``scan``)."""
+synthesized-cloud cache key), shared by both synthesis modes (:mod:`classify.training.synthesis`, mode ``paper``;
+:mod:`classify.training.scan_synth`, mode ``scan``)."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ class SynthesisSettings:
     candidates: int = 6000
     copies: int = 1
     seed: int = 0
-    # mode "scan" (classify.scan_synth): recon's highlight extension emulated from the beam geometry
+    # mode "scan" (classify.training.scan_synth): recon's highlight extension emulated from the beam geometry
     mode: str = "paper"
     lateral_m: tuple[float, float] = (-1.0, 1.0)
     min_cos: tuple[float, float] = (0.0, 0.5)
@@ -64,15 +64,15 @@ class SynthesisSettings:
     # "mean": centred on the mean in 3D; "seabed" (needs scale_m > 0): centred horizontally only, z kept as
     # the height above the local seabed (the object's height is a feature; recon knows the seabed)
     z_ref: str = "mean"
-    # mode "scan", fused and partial views (classify.views): a view is the union of 2-3 passes (their count
+    # mode "scan", fused and partial views (classify.training.views): a view is the union of 2-3 passes (their count
     # drawn from fused_passes) with probability fused_prob, each later pass shifted by misalign_m (m, random
     # direction: dead reckoning between lines); a pass sees only part of the object with probability partial_prob
     fused_prob: float = 0.0
     fused_passes: tuple[float, float] = (2.0, 3.0)
     misalign_m: tuple[float, float] = (0.0, 0.3)
     partial_prob: float = 0.0
-    # clutter (classify.clutter_synth): clutter_clouds > 0 adds the class "clutter", that many clouds of what recon
-    # makes of rough seabed patches with no object
+    # clutter (classify.training.clutter_synth): clutter_clouds > 0 adds the class "clutter", that many clouds of what
+    # recon makes of rough seabed patches with no object
     clutter_clouds: int = 0
     clutter_roughness_m: tuple[float, float] = (0.03, 0.10)  # m rms
     clutter_slope_deg: tuple[float, float] = (0.0, 10.0)
@@ -86,8 +86,8 @@ class SynthesisSettings:
     clutter_energy_threshold: tuple[float, float] = (0.0015, 0.003)
     clutter_rays_per_beam: int = 32  # rays per beam over the seabed (the simulator's default)
     clutter_poll_m: float = 1.0  # m flown between recon's polls (its seabed fit sees what came before)
-    # objects on rough patches (classify.object_patch_synth): object_patch_views > 0 adds that many views per class
-    # of the mesh lying on a drawn rough seabed, as recon's own seabed removal and clustering hand them over
+    # objects on rough patches (classify.training.object_patch_synth): object_patch_views > 0 adds that many views per
+    # class of the mesh lying on a drawn rough seabed, as recon's own seabed removal and clustering hand them over
     object_patch_views: int = 0
     object_patch_roughness_m: tuple[float, float] = (0.03, 0.10)  # m rms
     object_patch_lines: tuple[float, float] = (1.0, 3.0)  # lines past the object

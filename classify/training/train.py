@@ -1,11 +1,11 @@
-"""Training of :class:`~classify.pointnet.PointNet` on a :class:`~classify.dataset.CloudSet`.
+"""Training of :class:`~classify.pointnet.PointNet` on a :class:`~classify.training.dataset.CloudSet`.
 
 Adam with a one-cycle (cosine) learning-rate schedule, cross entropy (label smoothing) plus the feature
 transform's orthogonality regulariser, a stratified validation split, early stopping on the
 validation accuracy (ties broken by the validation loss) with the best weights restored, and a
 tqdm progress bar. Each epoch sees every training cloud once, subsampled to ``n_points`` points,
 rescaled into the unit sphere (as :class:`classify.infer.Classifier` does) and augmented
-(:mod:`classify.augment`); every draw comes from one generator seeded by ``seed``.
+(:mod:`classify.training.augment`); every draw comes from one generator seeded by ``seed``.
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ import torch
 from torch import nn
 
 from auvlink.progress import progress_bar
-from classify.augment import AugmentConfig, augment_batch, normalize_batch
-from classify.dataset import CloudSet, stratified_split
 from classify.labels import CLUTTER
 from classify.pointnet import PointNet, PointNetConfig, default_device, orthogonality_loss
+from classify.training.augment import AugmentConfig, augment_batch, normalize_batch
+from classify.training.dataset import CloudSet, stratified_split
 
 
 @dataclass(frozen=True)

@@ -10,10 +10,10 @@ swath, or where a line starts or ends over the object). :func:`scan_view` draws 
   tilt: the first along the scan direction, each later one along the opposite heading (7 in 10, an adjacent
   line of the lawnmower) or any heading (a crossing line), shifted horizontally by a misalignment drawn from
   ``misalign_m`` in a random direction (what dead reckoning leaves between lines);
-* each pass is partial with probability ``partial_prob`` (:func:`classify.scan_synth.partial_pass`).
+* each pass is partial with probability ``partial_prob`` (:func:`classify.training.scan_synth.partial_pass`).
 
 :func:`training_cloud` turns the points of any view (an object's, or a clutter cluster's,
-:mod:`classify.clutter_synth`) into the stored cloud: ``n_points`` points with a drawn fraction of noise
+:mod:`classify.training.clutter_synth`) into the stored cloud: ``n_points`` points with a drawn fraction of noise
 points, normalized as the settings say. Every draw comes from the generator passed in.
 """
 
@@ -26,8 +26,8 @@ import numpy as np
 import numpy.typing as npt
 
 from classify.normalize import normalize_cloud
-from classify.scan_synth import scan_points
-from classify.synthesis_settings import SynthesisSettings
+from classify.training.scan_synth import scan_points
+from classify.training.synthesis_settings import SynthesisSettings
 
 F64 = npt.NDArray[np.float64]
 F32 = npt.NDArray[np.float32]
@@ -63,7 +63,7 @@ def training_cloud(surf: F64, settings: SynthesisSettings, rng: np.random.Genera
                    seabed_z: float = 0.0) -> tuple[F32, npt.NDArray[np.bool_]]:
     """``n_points`` points of ``surf`` (metres; drawn with replacement when fewer) plus a fraction drawn from
     ``noise_fraction`` of ``n_found`` as Gaussian noise points, shuffled and normalized
-    (:func:`classify.synthesis.normalize_cloud`, seabed at depth ``seabed_z``); and the noise mask."""
+    (:func:`classify.training.synthesis.normalize_cloud`, seabed at depth ``seabed_z``); and the noise mask."""
     n = settings.n_points
     frac = float(rng.uniform(*settings.noise_fraction))
     n_noise = min(round(frac * n_found), n - 1)

@@ -23,13 +23,13 @@ import numpy as np
 import numpy.typing as npt
 
 from classify.checkpoint import save_checkpoint
-from classify.config import TrainSettings
-from classify.dataset import CloudSet, MeshSource, catalog_meshes, heldout_settings, synthesize_set
-from classify.evaluate import EvalReport
 from classify.infer import Classifier
 from classify.labels import CLUTTER, with_clutter
-from classify.synthesis import SynthesisSettings
-from classify.train import TrainResult, train
+from classify.training.config import TrainSettings
+from classify.training.dataset import CloudSet, MeshSource, catalog_meshes, heldout_settings, synthesize_set
+from classify.training.evaluate import EvalReport
+from classify.training.synthesis import SynthesisSettings
+from classify.training.train import TrainResult, train
 
 #: the share of clutter among the clusters recon hands the classifier, which weighs the two errors in the
 #: threshold's choice (:func:`calibrate_clutter`): 12 of 273 first emissions (4 %) on 40 random surveys (draw seed
