@@ -39,7 +39,7 @@ from auvlink.evaluation.simeval import (
 from auvlink.pipeline.engine_config import default_recon_config
 from recon.cluster import ClusterConfig, cluster
 from recon.highlight import extract
-from recon.pipeline import ReconConfig
+from recon.reconstructor import ReconConfig
 
 SCENE_OBJECTS = [("sphere", 8.0, 0.5), ("box", 16.0, -0.6), ("reef_a", 25.0, 0.3), ("pipe", 34.0, -0.4),
                  ("hemisphere", 12.0, 3.0), ("half_pipe", 22.0, 4.2), ("reef_c", 31.0, 3.4)]

@@ -37,7 +37,7 @@ from _recon_sim import accuracy, cluster_knobs, demo_frames, knobs, nav, scene_f
 
 from recon.cluster import dbscan_labels
 from recon.highlight import HighlightConfig, extract
-from recon.pipeline import ReconConfig, Reconstructor
+from recon.reconstructor import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry, paper_minus_exact
 from recon.synthetic import Box, Scene, Sphere, render
 from recon.trajectory import Trajectory

@@ -1,13 +1,25 @@
 """3D reconstruction from a forward-scan sonar: navigation, highlight extension, seabed, clustering.
 
-Pure computation on numpy arrays and small frozen dataclasses (no ports, no files except
-:mod:`recon.ply`). Modules: :mod:`recon.frames` (attitudes, mountings, RDI frames), :mod:`recon.nav`
-(dead reckoning) and :mod:`recon.trajectory` (pose interpolation), :mod:`recon.sonar_geometry`,
-:mod:`recon.highlight` and :mod:`recon.front_slope` (highlight-extension points), :mod:`recon.seabed`,
-:mod:`recon.cluster` (with :mod:`recon.cluster_index`), :mod:`recon.far_side` (centroids: the hidden far side),
-:mod:`recon.pipeline` (:class:`Reconstructor`), :mod:`recon.ply`, :mod:`recon.synthetic` (frames from analytic
-shapes, for tests and benchmarks). Recon against the simulator's ground truth is evaluation, in the application
-layer: :mod:`auvlink.evaluation.simeval`.
+Pure computation on numpy arrays and small frozen dataclasses (no ports, no files except :mod:`recon.ply`).
+Recon against the simulator's ground truth is evaluation, in the application layer
+(:mod:`auvlink.evaluation.simeval`). Modules:
+
+- navigation: :mod:`recon.frames` (attitudes, mountings, RDI frames), :mod:`recon.nav` (batch dead reckoning),
+  :mod:`recon.nav_stream` with :mod:`recon.nav_stream_lib` (causal dead reckoning), :mod:`recon.nav_anchor`
+  (GNSS anchoring), :mod:`recon.trajectory` (pose interpolation);
+- the sonar and its targets: :mod:`recon.sonar_geometry` (beams, bins, rays, seabed onset),
+  :mod:`recon.range_arcs` (a return's range arc), :mod:`recon.target_envelope` (the smallest and largest object
+  and the limits derived from them);
+- the reconstruction: :mod:`recon.reconstructor` (:class:`Reconstructor`, the stages in order) with
+  :mod:`recon.recon_config` (:class:`ReconConfig`); stage 1 :mod:`recon.onset_stage` (with
+  :mod:`recon.seabed_band`: the seabed return of each column); stages 2-3 :mod:`recon.highlight` (returns, points);
+  stage 4 :mod:`recon.seabed_evidence` into :mod:`recon.seabed_memory` (with :mod:`recon.seabed`: tiled planes,
+  :mod:`recon.seabed_texture`: the texture grid); stage 5 :mod:`recon.object_stage` (with :mod:`recon.poll_seabed`:
+  seabed removal and clutter, :mod:`recon.cluster`, :mod:`recon.cluster_stream`, :mod:`recon.cluster_index`,
+  :mod:`recon.fusion`: clustering across passes, :mod:`recon.front_slope` and :mod:`recon.far_side`: the final
+  objects' points and centroids, :mod:`recon.shape`: footprints);
+- :mod:`recon.errors`, :mod:`recon.ply` (PLY output), :mod:`recon.synthetic` (frames from analytic shapes, for
+  tests and benchmarks).
 """
 
 from recon.cluster import ClusterConfig, DetectedObject, cluster
@@ -16,7 +28,8 @@ from recon.errors import GeometryError, NavigationError, ReconError
 from recon.frames import Mounting, attitude
 from recon.highlight import HighlightConfig, extract
 from recon.nav import DepthSamples, DvlSamples, GyroSamples, NavConfig, dead_reckon, pressure_to_depth
-from recon.pipeline import ReconConfig, Reconstructor
+from recon.recon_config import ReconConfig
+from recon.reconstructor import Reconstructor
 from recon.seabed import SeabedConfig, SeabedModel, object_mask
 from recon.sonar_geometry import SonarGeometry
 from recon.trajectory import Trajectory

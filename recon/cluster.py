@@ -133,7 +133,7 @@ def robust_centre(pts: F64, q: float = 2.0) -> F64:
     The sonar sees an object's near side and top, from as many frames as it approaches, so the
     point mean leans towards the vehicle (0.25 m on the demo scene with true navigation); the
     robust box centre does not weigh by point density (0.18 m), and the percentiles ignore strays.
-    :class:`recon.pipeline.Reconstructor` then moves it by the far side it could not see (:mod:`recon.far_side`).
+    :class:`recon.reconstructor.Reconstructor` then moves it by the far side it could not see (:mod:`recon.far_side`).
     """
     lo, hi = np.percentile(pts, [q, 100.0 - q], axis=0)
     return np.asarray(0.5 * (lo + hi), dtype=np.float64)

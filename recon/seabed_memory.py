@@ -5,7 +5,7 @@ returns, every :data:`PLANE_FRAME_STEP`-th frame and :data:`PLANE_BEAM_STEP`-th 
 of :mod:`recon.seabed`, and the **texture grid** (:class:`recon.seabed_texture.SeabedCells`: per-cell sums of
 the dense seabed returns, every :data:`TEXTURE_BEAM_STEP`-th beam of every frame, the DVL points and the
 highlight points) behind :func:`recon.seabed_texture.fit_textured`. :meth:`SeabedMemory.fit` is the model of a
-poll (:class:`recon.pipeline.Reconstructor`, and :mod:`classify.training.clutter_synth`, which runs recon's seabed
+poll (:class:`recon.reconstructor.Reconstructor`, and :mod:`classify.training.clutter_synth`, which runs recon's seabed
 removal on synthesized patches): tiled planes from the plane samples around the box, and on them the texture
 grid. Memory grows with the samples kept (plane samples are a sparse subset) and with the area surveyed (the
 grid's cells), not with the frames.

@@ -20,7 +20,7 @@ from classify.pointnet import PointNet, PointNetConfig
 from classify.training.clutter_synth import clutter_clouds, synthesize_clutter
 from classify.training.config import load_train_settings
 from classify.training.scan_synth import energy_first_return
-from recon.pipeline import ReconConfig
+from recon.reconstructor import ReconConfig
 from recon.target_envelope import MAX_OBJECT_EXTENT_M
 
 torch.set_num_threads(1)

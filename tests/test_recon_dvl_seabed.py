@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scenes import scene_toml
 
-import recon.pipeline as rp
+import recon.reconstructor as rp
 from auvlink.evaluation.batch import run_log_batch
 from auvlink.pipeline.process import run_log
 from auvlink.sim.mission import simulate_to_log

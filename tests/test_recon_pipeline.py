@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from recon.pipeline import ReconConfig, Reconstructor
+from recon.reconstructor import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.synthetic import Box, Scene, Sphere, render, sloped_scene, surface_distance
 from recon.trajectory import Trajectory

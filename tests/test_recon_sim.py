@@ -25,7 +25,7 @@ from scenes import obj, scene_toml
 
 from auvlink.evaluation.simeval import SimFrames, cluster_errors, evaluate, nav_drift, simulate
 from recon.far_side import FarSideConfig
-from recon.pipeline import ReconConfig
+from recon.reconstructor import ReconConfig
 
 pytest.importorskip("open3d")
 

@@ -11,7 +11,7 @@ from recon.errors import GeometryError
 from recon.frames import attitude
 from recon.front_slope import arc_columns, replace_on_arcs, steepest_points
 from recon.highlight import project
-from recon.pipeline import Reconstructor
+from recon.reconstructor import Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.synthetic import Box, Scene, Sphere, render
 from recon.trajectory import Trajectory

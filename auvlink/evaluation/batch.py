@@ -17,7 +17,7 @@ from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
 from logs_format import MissionLogReader, Replay
 from recon.cluster import DetectedObject
 from recon.nav import dead_reckon
-from recon.pipeline import ReconConfig, Reconstructor
+from recon.reconstructor import ReconConfig, Reconstructor
 from recon.trajectory import Trajectory
 
 

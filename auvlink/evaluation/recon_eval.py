@@ -4,7 +4,7 @@ Per pass: one object at the origin of a gently rough seabed, turned by ``heading
 flies a straight level line north at ``altitude`` and 1 m/s, ``lateral`` metres to the side, from
 ``run_in`` metres before the object to ``run_out`` past it. Frames are rendered by the simulator
 (:class:`auvlink.sim.sonar_render.SonarRenderer`, speckle on) at ``fps`` and fed with the true poses
-to :class:`recon.pipeline.Reconstructor` with the pipeline's configuration
+to :class:`recon.reconstructor.Reconstructor` with the pipeline's configuration
 (:func:`auvlink.pipeline.engine.default_recon_config`), optionally overridden (highlight threshold
 factor, front-slope carving). The cloud of the detected object nearest the origin is returned. Poses are
 true here (no navigation noise); whole missions are the pipeline's test.
@@ -34,7 +34,7 @@ from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng
 from classify.infer import Classifier
 from classify.training.evaluate import EvalReport
-from recon.pipeline import Reconstructor
+from recon.reconstructor import Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.trajectory import Trajectory
 

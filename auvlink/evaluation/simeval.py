@@ -2,7 +2,7 @@
 
 :func:`simulate` renders every sonar frame of a scene's survey with :mod:`auvlink.sim` (the same
 renderer, poses and per-frame seeds as ``auvlink sim``; no log, no wire) and returns them with the
-true trajectory. :func:`evaluate` runs :class:`recon.pipeline.Reconstructor` on them
+true trajectory. :func:`evaluate` runs :class:`recon.reconstructor.Reconstructor` on them
 (:func:`reconstruct`) with the true navigation and scores the objects against the truth
 (:func:`match`): each true object is matched to the clusters whose centroid lies within ``radius`` m
 horizontally and nearer to it than to any other object (0 = missed or merged into a neighbour,
@@ -35,7 +35,7 @@ from auvlink.sim.truth import TRAJECTORY_ATTACHMENT
 from logs_format import MissionLogReader, Replay
 from recon.cluster import DetectedObject, robust_centre
 from recon.nav import dead_reckon
-from recon.pipeline import ReconConfig, Reconstructor
+from recon.reconstructor import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 from recon.trajectory import Trajectory
 
@@ -128,7 +128,7 @@ def object_points(frames: SimFrames, config: ReconConfig | None = None, block: i
     rec = Reconstructor(frames.geometry, frames.trajectory, config)
     for k in range(0, frames.times.size, block):
         rec.add_frames(frames.times[k : k + block], frames.images[k : k + block])
-    return rec._filtered_pending()
+    return rec.take_pending_points()
 
 
 def match(objects: list[DetectedObject], truth_xy: F64, radius: float = 1.5) -> list[list[int]]:

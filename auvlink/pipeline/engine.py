@@ -7,9 +7,9 @@ time of the sample being read), in ``(receive time, arrival)`` order:
 
 1. navigation samples go to :class:`recon.nav_stream.CausalNavigator` (a pose at t uses samples up
    to t only, and is the same number however the samples were grouped);
-2. sonar frames go to :class:`recon.pipeline.Reconstructor` in groups of ``frame_block`` frames
-   (with the DVL seabed points up to the group's last frame), so the result depends on the samples
-   and the settings only, never on when they arrived; frames before the navigation starts or more
+2. sonar frames go to :class:`recon.reconstructor.Reconstructor` in groups of ``frame_block`` frames
+   (it pulls the DVL seabed points up to the group's last frame from the navigator), so the result depends
+   on the samples and the settings only, never on when they arrived; frames before the navigation starts or more
    than ``max_extrapolation_s`` past it are skipped and counted;
 3. every ``poll_s`` of mission time the streaming clusterer finalizes the objects the vehicle is
    past; each is classified at once and handed to ``on_detection``, unless the classifier calls it
@@ -52,7 +52,7 @@ from classify.labels import CLUTTER
 from recon.cluster import DetectedObject, dbscan_labels
 from recon.nav import pressure_to_depth
 from recon.nav_stream import CausalNavigator
-from recon.pipeline import ReconConfig, Reconstructor
+from recon.reconstructor import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 
 #: s: the strip frame of an object is the one this long after its first highlight return: at the survey speed
@@ -183,7 +183,8 @@ class Engine:
         if self.rec is None:
             first = group[int(sel[0])][1]
             self.geometry = sonar_geometry(self.setup, first.azimuths, first.window)
-            self.rec = Reconstructor(self.geometry, self.nav, self.recon_config)
+            self.rec = Reconstructor(self.geometry, self.nav, self.recon_config,
+                                     dvl_max_pitch=np.radians(self.config.max_pitch_deg))
         g = self.rec.geometry
         imgs = [group[i][1].image for i in sel]
         good = [k for k, im in enumerate(imgs) if im.shape == (g.n_bins, g.n_beams) and im.dtype == np.uint8]
@@ -191,8 +192,6 @@ class Engine:
         if not good:
             return 0
         sel, ts = sel[good], times[sel[good]]
-        self.rec.add_seabed_points(self.nav.take_seabed_points(until=float(ts.max()),
-                                                                max_pitch=np.radians(self.config.max_pitch_deg)))
         stack = np.stack([imgs[k] for k in good])
         self.rec.add_frames(ts, stack)
         if self._on_frames is not None:

@@ -12,7 +12,7 @@ from pydantic.dataclasses import dataclass
 from auvlink.validation import CONFIG, Integer, Number, validate
 from recon.cluster import ClusterConfig
 from recon.highlight import HighlightConfig
-from recon.pipeline import ReconConfig
+from recon.reconstructor import ReconConfig
 
 
 def default_recon_config() -> ReconConfig:

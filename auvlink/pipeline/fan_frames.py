@@ -5,7 +5,7 @@ The picture is the fan of :mod:`logs_format.fan` (x starboard, y forward in the 
 range at the top, square pixels) at most ``height_px`` pixels high, a palette PNG: grey levels
 0..254 through the inferno colour map (255 shown as 254), the inferno black outside the fan; each
 highlight-extension return (the first return above the expected seabed of a beam,
-:attr:`recon.pipeline.Reconstructor.last_returns`) is a cyan cross (palette index 255).
+:attr:`recon.reconstructor.Reconstructor.last_returns`) is a cyan cross (palette index 255).
 Memory stays bounded: past ``max_frames`` every other kept frame is dropped and the interval doubles.
 A recorder is an engine ``on_frames`` observer (:class:`auvlink.pipeline.engine.Engine`).
 """

@@ -26,7 +26,7 @@ from auvlink.pipeline.setup import MissionSetup
 from auvlink.progress import progress_bar
 from logs_format import MissionLogReader, Replay
 from logs_format.bounded_json import loads_bounded
-from recon.pipeline import ReconConfig
+from recon.reconstructor import ReconConfig
 
 FRAME_BLOCK = 64  # frames per reconstruction call when replaying a log not recorded live
 

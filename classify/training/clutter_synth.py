@@ -17,9 +17,9 @@ they become clusters, which the classifier must call ``clutter``. They are synth
 * **Returns per frame and beam** (:func:`classify.training.seabed_returns.line_returns`): each ray of the fan meets the
   seabed; the returns summed per range bin against recon's threshold give the highlight-extension points before
   the onset, the seabed returns after it, and the DVL's bottom points.
-* **Recon's own code** (:func:`recon_clusters`) with its default settings (:class:`recon.pipeline.ReconConfig`):
+* **Recon's own code** (:func:`recon_clusters`) with its default settings (:class:`recon.reconstructor.ReconConfig`):
   the seabed samples fill a :class:`recon.seabed_memory.SeabedMemory` as in
-  :meth:`recon.pipeline.Reconstructor.add_frames`; every ``poll_m`` metres of a line (a poll), the points of
+  :meth:`recon.reconstructor.Reconstructor.add_frames`; every ``poll_m`` metres of a line (a poll), the points of
   that stretch are filtered by :func:`recon.poll_seabed.object_points` against the seabed
   :meth:`recon.seabed_memory.SeabedMemory.fit` gives from what was seen so far (tiled planes and
   texture grid); the points kept are clustered by :func:`recon.cluster.cluster` per line (the cloud of a first
@@ -48,7 +48,7 @@ from classify.training.views import training_cloud
 from recon.cluster import DetectedObject, cluster
 from recon.front_slope import replace_on_arcs
 from recon.poll_seabed import object_points, on_seabed
-from recon.pipeline import ReconConfig
+from recon.reconstructor import ReconConfig
 from recon.seabed_memory import SeabedMemory
 
 F64 = npt.NDArray[np.float64]

@@ -42,7 +42,7 @@ from classify.training.seabed_returns import LineReturns, draw_seabed, fly_lines
 from classify.training.synthesis_settings import SynthesisSettings
 from classify.training.views import training_cloud
 from recon.front_slope import replace_on_arcs
-from recon.pipeline import ReconConfig
+from recon.reconstructor import ReconConfig
 
 F64 = npt.NDArray[np.float64]
 MAX_TRIES_PER_VIEW = 6  # patches drawn per view asked before giving up

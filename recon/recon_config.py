@@ -1,0 +1,32 @@
+"""Recon's settings: :class:`ReconConfig`, what a user of recon sets, with one table per stage.
+
+The values recon derives instead of asking for are named where they are used, each with its source: the target
+envelope (:mod:`recon.target_envelope`), the sonar's geometry (:class:`recon.sonar_geometry.SonarGeometry`), the
+seabed sampling (:mod:`recon.seabed_memory`) and the onset fit (:mod:`recon.onset_stage`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from recon.cluster import ClusterConfig
+from recon.far_side import FarSideConfig
+from recon.highlight import HighlightConfig
+from recon.seabed import SeabedConfig
+from recon.seabed_band import BandConfig
+from recon.seabed_texture import TextureConfig
+
+
+@dataclass(frozen=True)
+class ReconConfig:
+    """What a user of recon sets; everything else is derived (:mod:`recon.target_envelope`, the sonar geometry)."""
+
+    highlight: HighlightConfig = field(default_factory=HighlightConfig)
+    seabed: SeabedConfig = field(default_factory=SeabedConfig)
+    cluster: ClusterConfig = field(default_factory=ClusterConfig)
+    front_slope: bool = True  # correct the front slope: points re-placed on their range arcs (recon.front_slope)
+    front_slope_length: float = 1.0  # m: how far behind a point its object's top is sought
+    front_slope_width: float = 0.25  # m: across the look direction
+    far_side: FarSideConfig = field(default_factory=FarSideConfig)  # with front_slope: centroid (recon.far_side)
+    band: BandConfig = field(default_factory=BandConfig)  # each column's seabed return (recon.seabed_band)
+    texture: TextureConfig = field(default_factory=TextureConfig)  # the seabed at the scale of its texture
