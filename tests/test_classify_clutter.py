@@ -59,6 +59,7 @@ def test_energy_first_return_matches_the_dense_formulation() -> None:
         np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)])
 
 
+@pytest.mark.slow
 def test_clutter_clusters_look_like_recon_clutter() -> None:
     """Clusters of rough seabed patches as recon leaves them: low (recon's threshold keeps them above the
     texture grid, the too-low test drops those under 0.15 m), no wider than recon's largest object, at least its

@@ -74,6 +74,7 @@ def _error(points: np.ndarray, seabed: SeabedSurface) -> np.ndarray:
     return np.asarray(points[:, 2] - seabed.depth(points[:, 0], points[:, 1]))
 
 
+@pytest.mark.slow
 def test_dvl_seabed_points_lie_on_a_sloped_seabed(sloped: tuple[Path, SeabedSurface],
                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     """Up and down a 10 deg slope at 6 m: the DVL's seabed points within a few cm of the seabed (batch and live

@@ -10,6 +10,8 @@ from recon.sonar_geometry import SonarGeometry
 from recon.synthetic import Box, Scene, Sphere, render, sloped_scene, surface_distance
 from recon.trajectory import Trajectory
 
+pytestmark = pytest.mark.slow
+
 D = np.deg2rad
 G = SonarGeometry.from_degrees(30, 14, lever_arm=(0.8, 0.0, 0.2))
 OBJECTS = [((12.0, 0.3), "box"), ((22.0, -0.8), "sphere"), ((32.0, 0.6), "box")]

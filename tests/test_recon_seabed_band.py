@@ -110,6 +110,7 @@ def rough_run() -> tuple[object, object]:
     return rec, (objects, SeabedSurface(frames.scene.seabed, frames.scene.seed))
 
 
+@pytest.mark.slow
 def test_seabed_samples_on_a_rough_seabed_lie_on_it(rough_run: tuple) -> None:
     rec, (_, truth) = rough_run
     p = rec.seabed_points  # the DVL's and the sonar's seabed returns
@@ -128,6 +129,7 @@ def test_seabed_samples_on_a_rough_seabed_lie_on_it(rough_run: tuple) -> None:
         np.percentile(err, [5, 50, 95])
 
 
+@pytest.mark.slow
 def test_no_clutter_on_a_rough_seabed_without_objects(rough_run: tuple) -> None:
     _, (objects, _) = rough_run
     assert objects == [], [(o.centroid.round(1).tolist(), o.n_points) for o in objects]

@@ -27,6 +27,8 @@ from auvlink.evaluation.simeval import SimFrames, cluster_errors, evaluate, nav_
 from recon.far_side import FarSideConfig
 from recon.reconstructor import ReconConfig
 
+pytestmark = pytest.mark.slow
+
 pytest.importorskip("open3d")
 
 OBJECTS = [("sphere", 8.0, 0.5), ("box", 16.0, -0.6), ("reef_a", 25.0, 0.3), ("pipe", 34.0, -0.4),

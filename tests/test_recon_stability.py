@@ -63,6 +63,7 @@ def _run(offset: tuple[float, float], heading: float) -> list:
     return rc.finish()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("heading", [D(179.9), D(-179.9), D(63.0)])
 def test_reconstruction_far_from_origin_matches_near(heading: float) -> None:
     # offsets are multiples of the 6 m seabed tile, whose grid is anchored at the world origin

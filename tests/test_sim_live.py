@@ -34,6 +34,8 @@ def _config(tmp_path: Path, pressure: str = "keller") -> Path:
     return path
 
 
+@pytest.mark.live
+@pytest.mark.slow
 def test_record_reads_every_simulated_device(tmp_path: Path) -> None:
     cfg_path = _config(tmp_path)
     config = load_config(cfg_path)
@@ -81,6 +83,8 @@ def test_the_config_describes_the_vehicle() -> None:
         match_devices(bad)
 
 
+@pytest.mark.live
+@pytest.mark.slow
 def test_cli_live_stops_cleanly_on_sigterm(tmp_path: Path) -> None:
     cfg = _config(tmp_path, pressure="paro")
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}

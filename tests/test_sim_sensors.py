@@ -115,6 +115,7 @@ def test_gyro_rates_integrate_to_the_heading_change() -> None:
     assert np.all(np.abs(g.accel[:, 2] + 9.80665) < 1e-6)
 
 
+@pytest.mark.slow
 def test_gyro_noise_follows_the_datasheet_figures() -> None:
     run = _run(duration=600.0)
     g = run.measurements.gyro
