@@ -1,10 +1,9 @@
 """The hidden far side: an object's centroid moved away from the sonar by the depth it could not see.
 
-Why: the sonar sees an opaque object's near side and top. Its far side faces away, and the last rays
-that still meet it (the steepest ray, as the object leaves the fan) do so at grazing incidence, too weak
-to be detected; the cloud ends 0.5-0.7 m short of the far edge. So the robust box centre
-(:func:`recon.cluster.robust_centre`) leans towards the vehicle: 0.19-0.35 m along the look for the sphere,
-hemisphere, box, pipe and half pipe of the simulator's 7-object scenes (true navigation, arc front slope).
+The sonar sees an opaque object's near side and top. Its far side faces away, and the last rays that still
+meet it (the steepest ray, as the object leaves the fan) do so at grazing incidence, too weak to be detected,
+so the cloud ends short of the far edge and the robust box centre (:func:`recon.cluster.robust_centre`) leans
+towards the vehicle.
 
 Correction (:func:`far_side_centre`), from the object's own points and their range arcs
 (:func:`recon.range_arcs.arc_columns`: the sonar origin of every point and the beam's horizontal look
@@ -22,23 +21,9 @@ direction ``u``); no class is needed, recon runs before classification:
    (``width`` m either side), a point of the same object nearer to the sonar by more than ``gap`` m rises
    above the line of sight to it by more than ``dz`` m; an opaque object cannot return from there. An
    object with at least ``open_min`` such points, and more than ``open_fraction`` of its points, is open.
-   Measured: none of the 104 spheres, hemispheres, boxes, pipes and half pipes below has a single such
-   point; 24 of the 25 pyramid reefs are open (up to 27 points, 6.7 %), 7 of 22 cube reefs and 3 of 19
-   arch reefs (the others are seen through less, and mostly no wider than deep: barely moved).
 
-Measured (the simulator, true navigation, recon's defaults; horizontal centroid errors before -> after):
-the 7-object scenes of ``tests/test_recon_sim.py``, worst 0.367 -> 0.281 m (flat; the half pipe, 0.278 m
-of it across the look: it is seen in two frames, along part of its length), mean 0.232 -> 0.126 m, and
-worst 0.350 -> 0.248 m (5 deg slope), mean 0.248 -> 0.137 m; the demo scene, worst 0.265 -> 0.217 m, mean
-0.153 -> 0.086 m; 150 objects of 24 random 8-object scenes (3 lines, 0-5 deg seabeds, 4.5-5.5 m altitude),
-mean 0.262 -> 0.163 m, 44 -> 20 objects beyond 0.3 m. Per class (all 172 objects): sphere 0.20 -> 0.05 m,
-hemisphere 0.30 -> 0.10, box 0.40 -> 0.24, half pipe 0.33 -> 0.22, pipe 0.41 -> 0.33 (three pipes seen only
-by their near end stay 1.2-1.3 m off), cube reef 0.12 -> 0.12, arch reef 0.24 -> 0.17, pyramid reef 0.146 ->
-0.152. Worse by more than 5 cm: 2 of 172 (the demo's arch reef 0.04 -> 0.22 m, one pyramid reef 0.13 ->
-0.28 m). ``recon.synthetic`` (a ray caster returning the same level at any incidence, so it sees the far
-side of a sphere's top) gets worse: its spheres 0.04-0.05 -> 0.15-0.23 m; its boxes, seen whole, are
-unchanged. The correction is a function of the object's final points alone, computed in a sorted order (the
-same bits for the same points in any order), so batch and streaming agree. About 4 ms per object.
+The correction is a function of the object's final points alone, computed in a sorted order (the same bits
+for the same points in any order), so batch and streaming agree.
 """
 
 from __future__ import annotations

@@ -2,19 +2,11 @@
 
 Recon places every return on the steepest ray of its beam (elevation ``t + s/2``). That is right for a
 column's *first* return: the steepest ray meets the seabed (or a crest, or an object) nearest. A later
-return comes from a shallower ray, and placed on the steepest ray it lies *under* the seabed. Two
-things made the seabed samples late, and so 0.1-0.5 m too deep on rough seabeds:
-
-- the search began at the expected onset (minus a 0.1 m margin) of the seabed fitted so far: where
-  that fit was too deep, the search began past the true onset, the sample came out deeper still and
-  the next fit deeper again (onsets 0.5-1.5 m of depth too deep, measured on random surveys);
-- it asked for two bins above the threshold, but the steepest ray's return is one ray in one bin
-  (the rays of a beam meet a flat seabed 2-5 bins apart), so the detection waited for a bin pair.
-
-So (:func:`seabed_returns`): per column, the first bin above the frame's threshold from ``lead_m`` of
-range before the expected onset to ``band_m`` after it (one bin is enough: ``min_run``). Speckle above the
-threshold in the water column is rare (well under 1 % of columns over a metre of range) and the fits
-that use these samples are robust.
+return comes from a shallower ray, and placed on the steepest ray it lies *under* the seabed. So the seabed
+sample of a column is its first return near the expected onset (:func:`seabed_returns`): the first bin above
+the frame's threshold from ``lead_m`` of range before the expected onset to ``band_m`` after it. One bin is
+enough (``min_run``): the steepest ray's return is one ray in one bin. Searching from before the onset keeps
+a seabed fitted too deep from pushing its own samples deeper still.
 
 The expected onset itself (:class:`OnsetTracker`): the seabed fitted so far predicts it, and the
 measured returns correct it where the fit is off (ahead of a new line, over a crest field the tiles do
