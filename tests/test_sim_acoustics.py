@@ -167,13 +167,14 @@ def test_energy_beyond_the_edge_moves_the_onset_as_the_pattern_predicts() -> Non
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**32 - 1), objects=st.integers(0, 3))
 def test_the_elevation_integral_keeps_every_sample_energy(seed: int, objects: int) -> None:
-    """Samples inside the window, on the seabed or on objects, in any order of range: the image holds
-    exactly their energy (segments spread it, edges keep it), whatever the surfaces' layout."""
+    """Samples inside the window, on the seabed or on objects, in any order of range, between misses:
+    the image holds exactly their energy (segments spread it, edges keep it), whatever the layout."""
     im = _imager()
     g = im.g
     draw = np.random.default_rng(seed)
     r = g.window_start + draw.random(g.n_rays) * g.n_bins * g.bin_width
-    e = draw.random(g.n_rays)
+    r[draw.random(g.n_rays) < 0.2] = np.inf  # misses (sky, beyond the window) return nothing
+    e = np.where(np.isfinite(r), draw.random(g.n_rays), 0.0)
     surface = draw.integers(-1, objects, g.n_rays).astype(np.int32) if objects else np.full(g.n_rays, -1, np.int32)
     img = im.integrate(r, e, surface)
     assert img.shape == (g.n_beams, g.n_bins) and np.all(img >= 0.0)
@@ -207,6 +208,20 @@ def test_pulse_smears_a_point_over_its_length(pulse_bins: float) -> None:
     assert lit[-1] - lit[0] + 1 == math.ceil(pulse_bins)
     assert out[1].sum() == pytest.approx(1.0)
     assert out[1, 100] == pytest.approx(1.0 / pulse_bins)
+
+
+def test_a_point_echo_through_the_whole_model_takes_the_configured_pulse_and_sidelobes() -> None:
+    """One sample returns (all others miss): the expected image holds it over ``pulse_m`` of range from
+    its true range on its beam, and at ``sidelobe_db`` two beams off."""
+    im = _imager(pulse_m=0.06, sidelobe_db=-22.0)
+    g = im.g
+    r = np.full(g.n_rays, np.inf)
+    ray = 32 * g.n_beams + 50  # the centre elevation, beam 50
+    r[ray] = g.range_of_bin[200]
+    img = im.expected(r, np.full(g.n_rays, 1.0), np.full(g.n_rays, 1e-3), np.full(g.n_rays, -1, np.int32))
+    lit = np.flatnonzero(img[50] > img[50].max() * 1e-6)
+    assert lit[0] == 200 and lit[-1] == 200 + math.ceil(0.06 / g.bin_width) - 1
+    assert 10.0 * np.log10(img[52, 200] / img[50, 200]) == pytest.approx(-22.0, abs=2.0)
 
 
 # --- speckle, TVG error ------------------------------------------------------------------------

@@ -191,8 +191,8 @@ class AcousticImager:
         e = energy.reshape(nk, nb)
         s = surface.reshape(nk, nb)
         with np.errstate(invalid="ignore"):
-            span = np.abs(x[1:] - x[:-1])  # nan where a sample misses
-            joined = (s[:-1] == s[1:]) & (span > MIN_SPAN_BINS) & (
+            span = np.abs(x[1:] - x[:-1])  # inf or nan where a sample misses
+            joined = (s[:-1] == s[1:]) & np.isfinite(span) & (span > MIN_SPAN_BINS) & (
                 (s[:-1] < 0) | (span * g.bin_width < OBJECT_GAP_M))
         single = np.full((nk, nb), 2.0)  # a sample's halves not in a segment stay in its own bin
         single[1:] -= joined
