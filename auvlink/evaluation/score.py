@@ -1,7 +1,8 @@
 """Scoring a survey's detections against its truth, and pooling the scores over surveys and factor bins.
 
 Per survey (:func:`score_survey`): detections are matched to true objects greedily by horizontal
-distance (each at most once, within ``radius`` m); a match counts as correct when the classes agree
+distance (each at most once, within ``radius`` m; :func:`auvlink.pipeline.scoring.match`, as ``summary.json``'s
+scores); a match counts as correct when the classes agree
 (precision = correct / detections, recall = correct / objects), at 1 m and at 2 m. Failures are
 counted by kind, each detection and each object once:
 
@@ -29,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from auvlink.pipeline.scoring import match
+
 ASSIGN_M = 2.5
 MERGE_PAD_M = 0.3
 RADII = (1.0, 2.0)
@@ -51,25 +54,6 @@ def bin_label(factor: str, value: float) -> str:
     return f"{edges[i]:g}-{edges[i + 1]:g}"
 
 
-def greedy_match(det_xy: np.ndarray, truth_xy: np.ndarray, radius: float) -> list[tuple[int, int, float]]:
-    """(detection, truth, distance) pairs, nearest first, each index at most once, within ``radius``."""
-    if det_xy.size == 0 or truth_xy.size == 0:
-        return []
-    d = np.linalg.norm(det_xy[:, None, :] - truth_xy[None, :, :], axis=2)
-    pairs: list[tuple[int, int, float]] = []
-    used_d: set[int] = set()
-    used_t: set[int] = set()
-    for flat in np.argsort(d, axis=None, kind="stable"):
-        i, j = divmod(int(flat), d.shape[1])
-        if d[i, j] > radius:
-            break
-        if i not in used_d and j not in used_t:
-            used_d.add(i)
-            used_t.add(j)
-            pairs.append((i, j, float(d[i, j])))
-    return pairs
-
-
 def score_survey(detections: Sequence[dict[str, Any]], truth: Sequence[tuple[str, float, float]]
                  ) -> dict[str, Any]:
     """Counts of one survey. ``detections``: detections.jsonl lines (``class``, ``position_ned``,
@@ -80,7 +64,7 @@ def score_survey(detections: Sequence[dict[str, Any]], truth: Sequence[tuple[str
     tru_cls = [c for c, _, _ in truth]
     out: dict[str, Any] = {"detections": len(detections), "objects": len(truth)}
     for r in RADII:
-        pairs = greedy_match(det_xy, tru_xy, r)
+        pairs = match(det_xy, tru_xy, r)
         out[f"correct_{r:g}m"] = sum(det_cls[i] == tru_cls[j] for i, j, _ in pairs)
         out[f"located_{r:g}m"] = len(pairs)
     kinds = dict.fromkeys(KINDS, 0)

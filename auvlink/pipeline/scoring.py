@@ -1,8 +1,10 @@
 """Detections against a simulated mission's ground truth: detection and classification precision/recall.
 
 A detection matches the nearest unmatched true object whose horizontal distance is at most
-``radius`` (m), greedily by distance. Detection precision = matched / detections, recall =
-matched / true objects; classification counts a match as correct when the classes agree.
+``radius`` (m), greedily by distance (:func:`match`, the one matching of the project: ``summary.json`` and
+``auvlink eval --surveys``, :func:`auvlink.evaluation.score.score_survey`, both use it). Detection precision =
+matched / detections, recall = matched / true objects; classification counts a match as correct when the classes
+agree.
 """
 
 from __future__ import annotations
@@ -15,17 +17,22 @@ from auvlink.pipeline.results import MissionResult
 
 
 def match(det_xy: np.ndarray, truth_xy: np.ndarray, radius: float) -> list[tuple[int, int, float]]:
-    """Greedy nearest matching: (detection index, truth index, distance) pairs."""
+    """Greedy nearest-pair matching of detections ``det_xy`` (n, 2) to true objects ``truth_xy`` (m, 2), north and
+    east in one frame (m): the pairs whose horizontal distance is at most ``radius`` (m) are taken nearest first,
+    each detection and each true object at most once. Equal distances are taken in the order of the detection
+    index, then of the truth index (a stable sort of the row-major distance matrix), so the pairs depend on the
+    inputs alone. A non-finite position matches nothing. Returns (detection index, truth index, distance m), nearest
+    first."""
     if det_xy.size == 0 or truth_xy.size == 0:
         return []
     d = np.linalg.norm(det_xy[:, None, :] - truth_xy[None, :, :], axis=2)
-    pairs = []
+    within = np.flatnonzero(d <= radius)  # row-major: detection index, then truth index (NaN is never <= radius)
+    order = within[np.argsort(d.ravel()[within], kind="stable")]
+    pairs: list[tuple[int, int, float]] = []
     used_d: set[int] = set()
     used_t: set[int] = set()
-    for flat in np.argsort(d, axis=None):
+    for flat in order:
         i, j = divmod(int(flat), d.shape[1])
-        if not d[i, j] <= radius:  # (a non-finite distance, sorted last, matches nothing)
-            break
         if i in used_d or j in used_t:
             continue
         used_d.add(i)
