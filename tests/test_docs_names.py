@@ -186,3 +186,21 @@ def test_links_stay_inside_the_repository_and_find_their_target() -> None:
             elif anchor and target.suffix == ".md" and anchor not in heading_anchors(target.read_text("utf-8")):
                 problems.append(f"{where}: no heading with that anchor")
     assert not problems, "\n".join(problems)
+
+
+#: a repository path in a code span: a top folder of the repository, then at least one more part
+REPO_PATH = re.compile(r"(?<![\w./~$-])((?:auvlink|logs_format|recon|classify|docs|tests|benchmarks|examples|scripts)"
+                       r"/[\w./-]*)(?![\w<])")
+
+
+def test_the_files_and_folders_the_docs_name_exist() -> None:
+    missing = []
+    for path in DOCS:
+        text = FENCE.sub(lambda m: "\n" * m.group(0).count("\n"), path.read_text(encoding="utf-8"))
+        for span in SPAN.finditer(text):
+            for m in REPO_PATH.finditer(span.group(1)):
+                name = m.group(1).rstrip(".")
+                if not (ROOT / name).exists() and not (ROOT / f"{name}.py").exists():  # a module may go by its path
+                    line = text.count("\n", 0, span.start()) + 1
+                    missing.append(f"{path.relative_to(ROOT)}:{line}: `{name}`")
+    assert not missing, "files named in the docs that do not exist:\n" + "\n".join(missing)
