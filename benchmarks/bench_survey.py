@@ -9,6 +9,13 @@ as ``auvlink eval --surveys N --seed S``): precision and recall at 1 m and 2 m w
 to match, overall, per factor bin (one plot per factor in the report) and failures by kind.
 Quick: 8 surveys; ``--full``: 40 (the issue's acceptance size); smoke: 2 small surveys (2 lines,
 2 objects). Seed 1 throughout. Two worker processes. Nothing is cached.
+
+``tradeoffs`` (docs/BENCHMARKS.md): per acoustic profile (``ideal``, each sonar's, and ``random``: the whole
+acoustic space, :mod:`auvlink.evaluation.acoustic_draw`), the same surveys simulated and replayed under it:
+wall seconds per sonar frame (simulate + replay) against 1 - F1 at 1 m (class must match). Quick: 2 small
+surveys per profile; ``--full``: 8 surveys; smoke: ``ideal`` from the 2 small surveys above, 1 small survey under
+``random`` (the first of those, its acoustics drawn).
+``acoustic_profiles`` holds each profile's precision, recall and detections per object.
 """
 
 from __future__ import annotations
@@ -19,12 +26,42 @@ from typing import Any
 
 from _common import script_main, smoke, table, write_json
 
+from auvlink.evaluation.acoustic_draw import SPACES
 from auvlink.evaluation.score import BINS
 from auvlink.evaluation.surveys import run_surveys
 from auvlink.evaluation.tables import plot, text_table
 
 SEED = 1
 SURVEYS = {"smoke": 2, "quick": 8, "full": 40}
+ACOUSTIC_SURVEYS = {"smoke": 1, "quick": 2, "full": 8}  # per acoustic profile
+
+
+def _f1(p: float, r: float) -> float:
+    return 0.0 if not p + r > 0 else 2.0 * p * r / (p + r)  # nan (no detection) counts as 0
+
+
+def acoustic_tradeoffs(mode: str, folder: Path, workers: int, ideal: dict[str, Any]
+                       ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Per acoustic profile, the ``tradeoffs`` row (s per sonar frame against 1 - F1 at 1 m) and a row of its
+    precision, recall and detections per object (module docstring); ``ideal``: the smoke run's own result."""
+    n = ACOUSTIC_SURVEYS[mode]
+    spaces = ("ideal", "random") if mode == "smoke" else (*SPACES[1:], "random")
+    trade, detail = [], []
+    for space in spaces:
+        result = ideal if mode == "smoke" and space == "ideal" else run_surveys(
+            n, SEED, folder / f"acoustics-{space}", workers=workers, progress=False, small=mode != "full",
+            acoustics=space)
+        recs, o = result["surveys"], result["overall"]
+        frames = sum(r["sonar_frames"] for r in recs)
+        wall = sum(r["sim_wall_s"] + r["replay_wall_s"] for r in recs)
+        error = 1.0 - _f1(o["precision_1m"], o["recall_1m"])
+        trade.append({"knob": "acoustic profile", "setting": space, "time_s": wall / max(frames, 1),
+                      "time_unit": "s per sonar frame (simulate + replay)", "error": error,
+                      "error_name": "1 - F1 at 1 m (class must match)", "default": space == "ideal"})
+        detail.append({"profile": space, "surveys": len(recs), "objects": o["objects"], "detections": o["detections"],
+                       "precision_1m": o["precision_1m"], "recall_1m": o["recall_1m"],
+                       "detections_per_object": o["detections_per_object"], "s_per_frame": wall / max(frames, 1)})
+    return trade, detail
 
 
 def factor_plots(result: dict[str, Any]) -> list[dict[str, Any]]:
@@ -65,6 +102,8 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
                         "sim_wall_s": r["sim_wall_s"], "replay_wall_s": r["replay_wall_s"], **r["factors"]}
                        for r in result["surveys"]],
     }
+    res["tradeoffs"], res["acoustic_profiles"] = acoustic_tradeoffs(mode, folder, workers, result)
+    print(table(res["acoustic_profiles"]))
     write_json(out_dir, "survey", res)
     return res
 

@@ -14,7 +14,10 @@ from the condition space (:mod:`auvlink.evaluation.draw`), simulate each into a 
 through the pipeline and score the detections (1 m and 2 m, the class must match) overall, per
 factor bin and by failure kind (:mod:`auvlink.evaluation.surveys`); writes ``DIR/surveys.json``
 and ``DIR/surveys.png`` and prints the table, then per true class its recall, failures and what its wrongly classified
-objects were called (``--json``: the pooled figures as JSON). Default seed 1.
+objects were called (``--json``: the pooled figures as JSON). Default seed 1. ``--acoustics SPACE``: the
+acoustic conditions drawn with each survey (:mod:`auvlink.evaluation.acoustic_draw`): ``ideal`` (the default for
+now, so figures stay comparable with earlier runs), ``random`` (profile, beam patterns, sidelobes, pulse, gain,
+TVG error, noise floor, interference drawn per survey; one factor row each) or a sonar profile name.
 
 ``--clutter-sweep`` (with ``--surveys``): also measure the clutter threshold on those surveys
 (:mod:`auvlink.evaluation.clutter_sweep`): the figures above stay those of the model's own threshold, and a table
@@ -38,6 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from auvlink.atomic import check_output_dir, check_output_file, write_text
+from auvlink.evaluation.acoustic_draw import SPACES
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 
@@ -61,6 +65,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="--surveys: print the pooled figures as JSON")
     p.add_argument("--small", action="store_true", help="--surveys: 2 lines and 2 objects each (CI smoke)")
     p.add_argument("--keep-logs", action="store_true", help="--surveys: keep each survey's mission.mcap")
+    p.add_argument("--acoustics", choices=SPACES, default="ideal", metavar="SPACE",
+                   help="--surveys: acoustic conditions per survey: random (the whole acoustic space), ideal "
+                        "(default for now, comparable with earlier figures; random once recon is ready) or a "
+                        f"fixed sonar profile ({', '.join(SPACES[2:])})")
     p.add_argument("--clutter-sweep", action="store_true",
                    help="--surveys: also score every clutter threshold from 0.30 to 0.95 on those surveys")
     p.add_argument("--calibrated-model", type=Path, default=None, metavar="OUT.pt",
@@ -161,7 +169,8 @@ def _surveys(args: argparse.Namespace) -> int:
     seed = 1 if args.seed is None else args.seed
     result = run_surveys(args.surveys, seed, args.out, workers=args.workers, model=args.model,
                          keep_logs=args.keep_logs, progress=not args.json,
-                         small=args.small, clutter_sweep=args.clutter_sweep or calibrated is not None)
+                         small=args.small, clutter_sweep=args.clutter_sweep or calibrated is not None,
+                         acoustics=args.acoustics)
     png = plot(result, args.out / "surveys.png")
     if args.json:
         keys = ("seed", "command", "overall", "by_factor", "by_class", "clutter_sweep")

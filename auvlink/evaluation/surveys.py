@@ -1,7 +1,9 @@
 """Evaluation over random surveys: draw, simulate, replay, score (``auvlink eval --surveys N``).
 
-Each survey of the draw (:mod:`auvlink.evaluation.draw`) is written as a scene file
-``DIR/surveys/NNN/scene.toml``, simulated into ``DIR/surveys/NNN/mission.mcap`` by
+Each survey of the draw (:mod:`auvlink.evaluation.draw`), with its acoustic conditions
+(:mod:`auvlink.evaluation.acoustic_draw`: ``acoustics`` = ``ideal``, a sonar profile or ``random``) as its
+``[acoustics]`` table, is written as a scene file ``DIR/surveys/NNN/scene.toml``, simulated into
+``DIR/surveys/NNN/mission.mcap`` by
 :func:`auvlink.sim.mission.simulate_to_log` (what ``auvlink sim --out`` runs, noise on), replayed by
 :func:`auvlink.pipeline.process.run_log` and written by :func:`auvlink.pipeline.outputs.write_outputs`
 (what ``auvlink replay`` runs: framers, codecs, the streaming engine, classification; the outputs go
@@ -11,7 +13,8 @@ the scene's objects (:mod:`auvlink.evaluation.score`). The log is deleted after 
 
 Surveys run in ``workers`` processes (spawned, one thread each); the results do not depend on the
 number of workers. ``DIR/surveys.json`` holds the command, seed, every survey's draw, timings and
-scores, the pooled scores overall and per factor bin; ``DIR/surveys.png`` plots them.
+scores (``acoustics``: each survey's acoustic draw), the pooled scores overall and per factor bin (the
+acoustic factors after the survey's); ``DIR/surveys.png`` plots them.
 
 ``clutter_sweep`` (``--clutter-sweep``): each survey is replayed with no cluster called clutter, and every
 classification's probability of clutter is recorded (:mod:`auvlink.evaluation.clutter_sweep`). The survey's
@@ -33,6 +36,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from auvlink.evaluation.acoustic_draw import IDEAL, AcousticDraw, by_acoustic_factor, draw_acoustics
 from auvlink.evaluation.clutter_sweep import GRID, apply_rule, best_threshold, model_threshold, sweep, write_calibrated
 from auvlink.evaluation.draw import SurveyDraw, draw_surveys
 from auvlink.evaluation.score import by_class, by_factor, pool, score_survey
@@ -46,6 +50,7 @@ class SurveyJob:
     model: Path | None = None
     keep_log: bool = False
     clutter_threshold: float | None = None  # --clutter-sweep: the model's threshold (the survey is run at inf)
+    acoustics: AcousticDraw = IDEAL
 
 
 def run_survey(job: SurveyJob) -> dict[str, Any]:
@@ -59,7 +64,8 @@ def run_survey(job: SurveyJob) -> dict[str, Any]:
     d, folder = job.draw, job.folder
     folder.mkdir(parents=True, exist_ok=True)
     scene_path = folder / "scene.toml"
-    scene_path.write_text(d.scene_toml())
+    table = job.acoustics.table_toml()
+    scene_path.write_text(d.scene_toml() + ("\n" + table if table else ""))
     log = folder / "mission.mcap"
     t0 = time.perf_counter()
     sim = simulate_to_log(load_scene(scene_path), log, progress=False, workers=1)
@@ -84,6 +90,7 @@ def run_survey(job: SurveyJob) -> dict[str, Any]:
                  "clutter_scores": [list(v) for v in result.clutter_scores]}
         dets = apply_rule(dets, result.clutter_scores, sweep_at)
     return {**extra, "index": d.index, "folder": str(folder), "draw": d.to_dict(), "factors": d.factors(),
+            "acoustics": job.acoustics.to_dict(), "acoustic_factors": job.acoustics.factors(),
             "mission_s": sim.duration_s, "sonar_frames": sim.frames.get("sonar", 0),
             "sim_wall_s": t1 - t0, "replay_wall_s": t2 - t1, "recon": rec,
             "detections": [{k: x.get(k) for k in ("id", "class", "score", "position_ned", "size", "n_points",
@@ -110,17 +117,18 @@ def _run(job: SurveyJob) -> dict[str, Any]:
 
 def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path | None = None,
                 keep_logs: bool = False, progress: bool = True, small: bool = False,
-                clutter_sweep: bool = False) -> dict[str, Any]:
+                clutter_sweep: bool = False, acoustics: str = "ideal") -> dict[str, Any]:
     """Run ``n`` surveys of the draw ``seed`` into ``out``; returns (and writes) ``surveys.json``'s content.
     ``small``: the CI smoke draw (:func:`auvlink.evaluation.draw.draw_survey`); ``clutter_sweep``: see the module
-    docstring."""
+    docstring; ``acoustics``: the acoustic space (:func:`auvlink.evaluation.acoustic_draw.draw_acoustics`)."""
     if model is not None:  # every field checked before the first survey is simulated (minutes)
         from classify.checkpoint import read_checkpoint
 
         read_checkpoint(model)
     draws = draw_surveys(n, seed, small)
     at = model_threshold(model) if clutter_sweep else None
-    jobs = [SurveyJob(d, out / "surveys" / f"{d.index:03d}", model, keep_logs, at) for d in draws]
+    jobs = [SurveyJob(d, out / "surveys" / f"{d.index:03d}", model, keep_logs, at,
+                      draw_acoustics(acoustics, seed, d.index, d.window_length)) for d in draws]
     for j in jobs:  # a folder of an earlier run would mix its files with this run's
         if j.folder.exists():
             shutil.rmtree(j.folder)
@@ -144,10 +152,12 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
     if at is not None:
         rows = sweep(records, (*GRID, at))
         result["clutter_sweep"] = {"model_threshold": at, "best": best_threshold(rows, at), "rows": rows}
-    result.update({"seed": seed, "surveys_requested": n, "workers": workers, "wall_s": time.perf_counter() - t0,
+    result.update({"seed": seed, "acoustics": acoustics, "surveys_requested": n, "workers": workers,
+                   "wall_s": time.perf_counter() - t0,
                    "small": small,
                    "command": f"auvlink eval --surveys {n} --seed {seed} --out {out}" + (" (small)" if small else "")
-                   + (" --clutter-sweep" if clutter_sweep else "")})
+                   + (" --clutter-sweep" if clutter_sweep else "")
+                   + (f" --acoustics {acoustics}" if acoustics != "ideal" else "")})
     out.mkdir(parents=True, exist_ok=True)
     (out / "surveys.json").write_text(json.dumps(to_jsonable(result), indent=1, allow_nan=True) + "\n")
     return result
@@ -178,8 +188,10 @@ def _progress(r: dict[str, Any], k: int, n: int, t0: float) -> None:
 
 
 def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
-    """Pooled scores overall and per factor bin, and the per-survey records."""
+    """Pooled scores overall and per factor bin (the survey's factors, then the acoustic ones the surveys were
+    drawn with), and the per-survey records."""
     scores = [r["score"] for r in records]
     factors = [r["factors"] for r in records]
-    return {"overall": pool(scores), "by_factor": by_factor(scores, factors), "by_class": by_class(scores),
+    binned = by_factor(scores, factors) | by_acoustic_factor(scores, [r.get("acoustic_factors", {}) for r in records])
+    return {"overall": pool(scores), "by_factor": binned, "by_class": by_class(scores),
             "surveys": records}

@@ -20,9 +20,10 @@ def _cell(v: Any) -> str:
 
 
 def rows(result: dict[str, Any]) -> list[dict[str, Any]]:
-    """One row for all surveys, then one per factor bin; failures flattened into columns."""
+    """One row for all surveys, then one per factor bin (the survey's factors, then the acoustic ones the surveys
+    were drawn with); failures flattened into columns."""
     out = [{"factor": "all", "bin": "", **result["overall"], **result["overall"]["failures"]}]
-    for f in BINS:
+    for f in result["by_factor"]:
         for r in result["by_factor"][f]:
             out.append({**r, **r["failures"]})
     return out
