@@ -132,6 +132,7 @@ def test_mission_timeout_must_be_positive(tmp_path: Path, capsys: pytest.Capture
         assert "--mission-timeout must be > 0" in capsys.readouterr().err
 
 
+@pytest.mark.dask
 def test_a_failed_run_updates_batch_json(tmp_path: Path) -> None:
     import dask
 
