@@ -4,7 +4,8 @@ Pure computation on numpy arrays and small frozen dataclasses (no ports, no file
 Recon against the simulator's ground truth is evaluation, in the application layer
 (:mod:`auvlink.evaluation.simeval`). Modules:
 
-- navigation: :mod:`recon.frames` (attitudes, mountings, RDI frames), :mod:`recon.nav` (batch dead reckoning),
+- navigation: :mod:`recon.frames` (attitudes, mountings, RDI frames), :mod:`recon.nav_samples` (the sensors' samples),
+  :mod:`recon.nav` (batch dead reckoning),
   :mod:`recon.nav_stream` with :mod:`recon.nav_stream_lib` (causal dead reckoning), :mod:`recon.nav_anchor`
   (GNSS anchoring), :mod:`recon.trajectory` (pose interpolation);
 - the sonar and its targets: :mod:`recon.sonar_geometry` (beams, bins, rays, seabed onset),

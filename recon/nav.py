@@ -29,79 +29,34 @@ the gyro and DVL sample times (the span both cover).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from recon.errors import NavigationError
 from recon.frames import (
     Mounting,
-    VelocityFrame,
     attitude,
     dvl_seabed_offsets,
     rdi_earth_to_ned,
     rdi_instrument_mounting,
     to_body,
 )
+from recon.nav_samples import (
+    DepthSamples,
+    DvlColumns,
+    DvlSamples,
+    GyroSamples,
+    depth_columns,
+    dvl_columns,
+    gyro_columns,
+)
 from recon.trajectory import Trajectory
 
+__all__ = ["DepthSamples", "DvlSamples", "GyroSamples", "NavConfig", "dead_reckon", "pressure_to_depth"]
+
 F64 = NDArray[np.float64]
-
-
-def _arr(x: ArrayLike | None, n: int, name: str, fill: float = np.nan) -> F64:
-    if x is None:
-        return np.full(n, fill)
-    a = np.asarray(x, dtype=np.float64)
-    if a.shape[:1] != (n,):
-        raise NavigationError(f"{name} has {a.shape[:1]} values for {n} times")
-    return a
-
-
-def _clean(t: ArrayLike, *cols: F64) -> tuple[F64, ...]:
-    """Sort by time (stable), drop non-finite times and duplicate timestamps (keep the first)."""
-    ta = np.asarray(t, dtype=np.float64)
-    order = np.argsort(ta, kind="stable")
-    order = order[np.isfinite(ta[order])]
-    ts = ta[order]
-    keep = np.r_[True, np.diff(ts) > 0] if ts.size else np.zeros(0, bool)
-    return (ts[keep], *(c[order][keep] for c in cols))
-
-
-@dataclass(frozen=True, eq=False)
-class DvlSamples:
-    """DVL ensembles: time (s), velocity (n, 3) in ``frame``, validity, altitude (m), attitude (rad).
-
-    ``bottom_track=True`` means the PD0 convention (bottom moving relative to the instrument).
-    """
-
-    t: ArrayLike
-    velocity: ArrayLike
-    frame: VelocityFrame = "instrument"
-    valid: ArrayLike | None = None
-    altitude: ArrayLike | None = None
-    pitch: ArrayLike | None = None
-    roll: ArrayLike | None = None
-    heading: ArrayLike | None = None
-    bottom_track: bool = True
-
-
-@dataclass(frozen=True, eq=False)
-class GyroSamples:
-    """Gyro samples: ``value`` is the body z rate (n,) or body rates (n, 3) in rad/s for
-    ``kind='rate'``, or angle increments (rad) since the previous sample for ``kind='delta'``."""
-
-    t: ArrayLike
-    value: ArrayLike
-    kind: Literal["rate", "delta"] = "rate"
-
-
-@dataclass(frozen=True, eq=False)
-class DepthSamples:
-    """Absolute pressure (Pa) at the pressure sensor."""
-
-    t: ArrayLike
-    pressure_pa: ArrayLike
 
 
 @dataclass(frozen=True)
@@ -142,52 +97,44 @@ def dead_reckon(dvl: DvlSamples, gyro: GyroSamples, depth: DepthSamples,
                 config: NavConfig | None = None) -> Trajectory:
     """Integrate the navigation sensors into a :class:`Trajectory` (see the module docstring)."""
     cfg = config or NavConfig()
-    # --- DVL -------------------------------------------------------------------------------
-    dt_raw = np.asarray(dvl.t, dtype=np.float64)
-    n = dt_raw.shape[0]
-    vel = np.asarray(dvl.velocity, dtype=np.float64)
-    if vel.shape != (n, 3):
-        raise NavigationError(f"DVL velocity must be ({n}, 3), got {vel.shape}")
-    valid = np.ones(n, bool) if dvl.valid is None else np.asarray(dvl.valid, dtype=bool)
-    cols = (vel, valid.astype(np.float64), _arr(dvl.altitude, n, "altitude"),
-            _arr(dvl.pitch, n, "pitch", 0.0), _arr(dvl.roll, n, "roll", 0.0), _arr(dvl.heading, n, "heading"))
-    tv, vel, vvalid, alt, pitch, roll, heading = _clean(dt_raw, *cols)
-    ok = (vvalid > 0.5) & np.all(np.isfinite(vel), axis=1)
-    att_ok = np.isfinite(pitch) & np.isfinite(roll)
-    if tv.size < 2 or not ok.any() or att_ok.sum() < 1:
-        raise NavigationError("need at least 2 DVL samples with one valid velocity and attitude")
-    # --- gyro ------------------------------------------------------------------------------
-    graw = np.asarray(gyro.value, dtype=np.float64)
-    g2 = graw.reshape(graw.shape[0], -1)
-    if g2.shape[1] not in (1, 3):
-        raise NavigationError(f"gyro values must be (n,) or (n, 3), got {graw.shape}")
-    tg, g2 = _clean(gyro.t, g2)
-    fin = np.all(np.isfinite(g2), axis=1)
-    tg, g2 = tg[fin], g2[fin]
-    if tg.size < 2:
-        raise NavigationError("need at least 2 finite gyro samples")
-    # --- depth -----------------------------------------------------------------------------
-    td, pres = _clean(depth.t, np.asarray(depth.pressure_pa, dtype=np.float64))
-    fin = np.isfinite(pres)
-    td, pres = td[fin], pres[fin]
-    if td.size < 1:
-        raise NavigationError("need at least 1 finite pressure sample")
-    # --- time grid ---------------------------------------------------------------------------
-    t0, t1 = max(tg[0], tv[0]), min(tg[-1], tv[-1])
+    d = dvl_columns(dvl)
+    tg, g2 = gyro_columns(gyro)
+    td, pres = depth_columns(depth)
+    t0, t1 = max(tg[0], d.t[0]), min(tg[-1], d.t[-1])
     if not t1 > t0:
-        raise NavigationError(f"gyro [{tg[0]}, {tg[-1]}] and DVL [{tv[0]}, {tv[-1]}] do not overlap")
-    grid = np.union1d(tg, tv)
+        raise NavigationError(f"gyro [{tg[0]}, {tg[-1]}] and DVL [{d.t[0]}, {d.t[-1]}] do not overlap")
+    grid = np.union1d(tg, d.t)
     grid = grid[(grid >= t0) & (grid <= t1)]
     # attitude from the DVL (pitch, roll), heading from the gyro
-    ta = tv[att_ok]
-    pitch_g = np.interp(tg, ta, pitch[att_ok])
-    roll_g = np.interp(tg, ta, roll[att_ok])
+    psi = _heading(grid, d, tg, g2, gyro.kind, cfg)
+    ta = d.t[d.att_ok]
+    pitch_w = np.interp(grid, ta, d.pitch[d.att_ok])
+    roll_w = np.interp(grid, ta, d.roll[d.att_ok])
+    rot = attitude(psi, pitch_w, roll_w)
+    earth = dvl.frame in ("earth", "ned")
+    v_grid, degraded = _velocity_on_grid(grid, psi, d, dvl, tg, g2, gyro.kind, cfg)
+    pos = np.zeros((grid.size, 3))
+    pos[:, :2] = np.asarray(cfg.initial_position, dtype=np.float64)
+    pos[1:, :2] += np.cumsum(_displacements(grid, v_grid, psi, pitch_w, roll_w, earth), axis=0)
+    z = pressure_to_depth(np.interp(grid, td, pres), cfg.seawater_density, cfg.gravity, cfg.atmospheric_pa)
+    dlever = np.asarray(cfg.depth_lever_arm, dtype=np.float64)
+    pos[:, 2] = z - (rot.apply(dlever)[:, 2] if np.any(dlever) else 0.0)
+    degraded |= _gap_flag(grid, tg, cfg.gyro_gap_s) | _gap_flag(grid, td, cfg.depth_gap_s)
+    altitude, offsets = _altitude(grid, rot, d, cfg)
+    return Trajectory(grid, pos, rot, degraded=degraded, altitude=altitude, seabed_offsets=offsets)
+
+
+def _heading(grid: F64, d: DvlColumns, tg: F64, g2: F64, kind: str, cfg: NavConfig) -> F64:
+    """Heading (rad) on ``grid``: the gyro integrated, offset to the compass (or ``initial_heading``)."""
+    ta = d.t[d.att_ok]
+    pitch_g = np.interp(tg, ta, d.pitch[d.att_ok])
+    roll_g = np.interp(tg, ta, d.roll[d.att_ok])
     factor = np.cos(roll_g) / np.cos(pitch_g)
     if g2.shape[1] == 3:
         rate_like = (g2[:, 1] * np.sin(roll_g) + g2[:, 2] * np.cos(roll_g)) / np.cos(pitch_g)
     else:
         rate_like = g2[:, 0] * factor
-    if gyro.kind == "rate":
+    if kind == "rate":
         psi_g = np.r_[0.0, np.cumsum(0.5 * (rate_like[1:] + rate_like[:-1]) * np.diff(tg))]
     else:
         psi_g = np.r_[0.0, np.cumsum(rate_like[1:])]
@@ -195,35 +142,38 @@ def dead_reckon(dvl: DvlSamples, gyro: GyroSamples, depth: DepthSamples,
     if cfg.initial_heading is not None:
         psi0 = float(cfg.initial_heading)
     else:
-        hok = np.isfinite(heading) & (tv >= grid[0]) & (tv <= grid[0] + cfg.heading_init_s)
+        hok = np.isfinite(d.heading) & (d.t >= grid[0]) & (d.t <= grid[0] + cfg.heading_init_s)
         if not hok.any():
-            hok = np.isfinite(heading)
+            hok = np.isfinite(d.heading)
         if not hok.any():
             raise NavigationError("no DVL heading to initialise the gyro heading (set initial_heading)")
         # the compass is noisy (~0.5 deg), the gyro is not: estimate the constant offset between the
         # two as the circular mean over the first ``heading_init_s`` of DVL headings
-        offset = heading[hok] - (np.interp(tv[hok], grid, psi) - psi[0])
+        offset = d.heading[hok] - (np.interp(d.t[hok], grid, psi) - psi[0])
         psi0 = float(np.angle(np.mean(np.exp(1j * offset))))
-    psi = psi + (psi0 - psi[0])
-    pitch_w = np.interp(grid, ta, pitch[att_ok])
-    roll_w = np.interp(grid, ta, roll[att_ok])
-    rot = attitude(psi, pitch_w, roll_w)
-    # --- velocity on the grid (hold through dropouts) ------------------------------------------
-    v_meas = -vel if dvl.bottom_track else vel
+    return np.asarray(psi + (psi0 - psi[0]), dtype=np.float64)
+
+
+def _velocity_on_grid(grid: F64, psi: F64, d: DvlColumns, dvl: DvlSamples, tg: F64, g2: F64, kind: str,
+                      cfg: NavConfig) -> tuple[F64, NDArray[np.bool_]]:
+    """The velocity of the vehicle origin on ``grid`` (body FRD, or NED for earth frames), interpolated between
+    consecutive valid ensembles and held through dropouts; and where it was held longer than ``dropout_hold_s``."""
+    v_meas = -d.vel if dvl.bottom_track else d.vel
     earth = dvl.frame in ("earth", "ned")
-    vsel = v_meas[ok]
+    vsel = v_meas[d.ok]
     if earth:
         v_at = rdi_earth_to_ned(vsel) if dvl.frame == "earth" else vsel
     else:
         v_at = to_body(vsel, dvl.frame, cfg.dvl_mounting)
-    tok = tv[ok]
-    raw_idx = np.flatnonzero(ok)
+    tok = d.t[d.ok]
+    raw_idx = np.flatnonzero(d.ok)
     lever = cfg.dvl_mounting.lever
     if np.any(lever):  # v_origin = v_dvl - omega x l, at the DVL sample times
-        cross = np.cross(_body_rate(tok, tg, g2, gyro.kind), lever)
+        cross = np.cross(_body_rate(tok, tg, g2, kind), lever)
         if earth:
-            rot_v = attitude(np.interp(tok, grid, psi), np.interp(tok, ta, pitch[att_ok]),
-                             np.interp(tok, ta, roll[att_ok]))
+            ta = d.t[d.att_ok]
+            rot_v = attitude(np.interp(tok, grid, psi), np.interp(tok, ta, d.pitch[d.att_ok]),
+                             np.interp(tok, ta, d.roll[d.att_ok]))
             cross = rot_v.apply(cross)
         v_at = v_at - cross
     i = np.searchsorted(tok, grid, side="right") - 1
@@ -236,40 +186,41 @@ def dead_reckon(dvl: DvlSamples, gyro: GyroSamples, depth: DepthSamples,
     v_grid = (1.0 - w)[:, None] * v_at[ic] + w[:, None] * v_at[jn]
     since = np.where(i >= 0, grid - tok[ic], np.inf)
     since = np.where(consecutive, 0.0, since)
-    degraded = since > cfg.dropout_hold_s
-    # --- integrate -------------------------------------------------------------------------------
+    return v_grid, since > cfg.dropout_hold_s
+
+
+def _displacements(grid: F64, v_grid: F64, psi: F64, pitch: F64, roll: F64, earth: bool) -> F64:
+    """Horizontal NED displacement (m) over each grid step: trapezoid for earth-frame velocities, else the
+    level-frame velocity integrated exactly over a constant-rate turn."""
     dt = np.diff(grid)
     if earth:
-        d_n = 0.5 * (v_grid[1:, :2] + v_grid[:-1, :2]) * dt[:, None]
-    else:
-        lvl = attitude(np.zeros_like(grid), pitch_w, roll_w).apply(v_grid)
-        wbar = 0.5 * (lvl[1:, :2] + lvl[:-1, :2])
-        dpsi = np.diff(psi)
-        sinc = np.sinc(dpsi / np.pi)
-        cosc = np.sin(0.5 * dpsi) * np.sinc(0.5 * dpsi / np.pi)
-        lx = sinc * wbar[:, 0] - cosc * wbar[:, 1]
-        ly = cosc * wbar[:, 0] + sinc * wbar[:, 1]
-        c, s = np.cos(psi[:-1]), np.sin(psi[:-1])
-        d_n = np.stack([c * lx - s * ly, s * lx + c * ly], axis=1) * dt[:, None]
-    pos = np.zeros((grid.size, 3))
-    pos[:, :2] = np.asarray(cfg.initial_position, dtype=np.float64)
-    pos[1:, :2] += np.cumsum(d_n, axis=0)
-    z = pressure_to_depth(np.interp(grid, td, pres), cfg.seawater_density, cfg.gravity, cfg.atmospheric_pa)
-    dlever = np.asarray(cfg.depth_lever_arm, dtype=np.float64)
-    pos[:, 2] = z - (rot.apply(dlever)[:, 2] if np.any(dlever) else 0.0)
-    # --- flags and altitude ------------------------------------------------------------------------
-    degraded |= _gap_flag(grid, tg, cfg.gyro_gap_s) | _gap_flag(grid, td, cfg.depth_gap_s)
-    aok = np.isfinite(alt) & (alt > 0) & ok  # bottom lock: the same validity as the velocity
+        return np.asarray(0.5 * (v_grid[1:, :2] + v_grid[:-1, :2]) * dt[:, None], dtype=np.float64)
+    lvl = attitude(np.zeros_like(grid), pitch, roll).apply(v_grid)
+    wbar = 0.5 * (lvl[1:, :2] + lvl[:-1, :2])
+    dpsi = np.diff(psi)
+    sinc = np.sinc(dpsi / np.pi)
+    cosc = np.sin(0.5 * dpsi) * np.sinc(0.5 * dpsi / np.pi)
+    lx = sinc * wbar[:, 0] - cosc * wbar[:, 1]
+    ly = cosc * wbar[:, 0] + sinc * wbar[:, 1]
+    c, s = np.cos(psi[:-1]), np.sin(psi[:-1])
+    return np.stack([c * lx - s * ly, s * lx + c * ly], axis=1) * dt[:, None]
+
+
+def _altitude(grid: F64, rot: Rotation, d: DvlColumns, cfg: NavConfig) -> tuple[F64, F64]:
+    """Altitude (m, vehicle origin) on ``grid`` while the bottom lock is fresh (NaN otherwise), and the DVL's
+    seabed offsets (:func:`recon.frames.dvl_seabed_offsets`)."""
+    aok = np.isfinite(d.alt) & (d.alt > 0) & d.ok  # bottom lock: the same validity as the velocity
     altitude = np.full(grid.size, np.nan)
     if aok.any():
-        taa = tv[aok]
+        taa = d.t[aok]
         k = np.searchsorted(taa, grid, side="right") - 1
         fresh = (k >= 0) & (grid - taa[np.clip(k, 0, None)] <= cfg.dropout_hold_s)
-        altitude = np.where(fresh, np.interp(grid, taa, alt[aok]), np.nan)
+        altitude = np.where(fresh, np.interp(grid, taa, d.alt[aok]), np.nan)
     offsets = dvl_seabed_offsets(rot, altitude, cfg.dvl_mounting)  # the altitude as the DVL measured it (NaN: none)
+    lever = cfg.dvl_mounting.lever
     if np.any(lever):
         altitude = altitude + rot.apply(lever)[:, 2]
-    return Trajectory(grid, pos, rot, degraded=degraded, altitude=altitude, seabed_offsets=offsets)
+    return altitude, offsets
 
 
 def _body_rate(t: F64, tg: F64, g2: F64, kind: str) -> F64:

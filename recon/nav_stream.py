@@ -30,7 +30,7 @@ from scipy.spatial.transform import Rotation
 from recon.errors import NavigationError
 from recon.frames import attitude, dvl_seabed_offsets
 from recon.nav import DepthSamples, DvlSamples, GyroSamples, NavConfig, pressure_to_depth
-from recon.nav_stream_lib import Grow, body_velocity, level, rate_like, turn, zoh
+from recon.nav_stream_lib import Grow, body_velocity, gyro_rates, heading_offset, level, rate_like, turn, zoh
 
 F64 = NDArray[np.float64]
 T, X, Y, G, OFF, RATE, WX, WY, PITCH, ROLL, ALT, DEG = range(12)  # columns of the grid history
@@ -66,9 +66,6 @@ class CausalNavigator:
         return body_velocity(-vel if self._bottom_track else vel, self.frame, self.config.dvl_mounting, graw, psi,
                              pitch, roll)
 
-    def _level(self, vb: F64, pitch: F64, roll: F64) -> F64:
-        return level(vb, self.frame, pitch, roll)
-
     # ------------------------------------------------------------------ input
     def add(self, dvl: DvlSamples | None = None, gyro: GyroSamples | None = None,
             depth: DepthSamples | None = None) -> int:
@@ -80,23 +77,9 @@ class CausalNavigator:
             ok = np.isfinite(z) & np.isfinite(td)
             self._depth.extend(np.stack([td[ok], z[ok]], axis=1))
             self.samples["depth"] += int(ok.sum())
-        tg = np.zeros(0)
-        graw = np.zeros((0, 3))
+        tg, graw = np.zeros(0), np.zeros((0, 3))
         if gyro is not None:
-            tg = np.asarray(gyro.t, dtype=np.float64)
-            g = np.asarray(gyro.value, dtype=np.float64).reshape(tg.size, -1 if tg.size else 1)
-            graw = np.zeros((tg.size, 3))
-            if g.shape[1] == 3:
-                graw[:] = g
-            else:
-                graw[:, 2] = g[:, 0]
-            if gyro.kind == "delta":
-                prev = np.r_[self._t_gyro, tg[:-1]]
-                dt = tg - prev
-                graw = np.where((np.isfinite(dt) & (dt > 0))[:, None], graw / np.where(dt > 0, dt, 1.0)[:, None],
-                                np.nan)
-            keep = np.all(np.isfinite(graw), axis=1) & np.isfinite(tg)
-            tg, graw = tg[keep], graw[keep]
+            tg, graw = gyro_rates(gyro.t, gyro.value, gyro.kind, self._t_gyro)
             self.samples["gyro"] += int(tg.size)
         before = self.grid.n
         self._add_dvl_gyro(dvl, tg, graw)
@@ -175,7 +158,7 @@ class CausalNavigator:
         row = np.empty(NCOL)
         row[[T, X, Y, G, OFF]] = [t0, cfg.initial_position[0], cfg.initial_position[1], 0.0, off]
         row[RATE] = rate_like(self._gyro[None], p, r)[0]
-        row[[WX, WY]] = self._level(vb, p, r)[0]
+        row[[WX, WY]] = level(vb, self.frame, p, r)[0]
         row[[PITCH, ROLL, ALT, DEG]] = [pitch, roll, self._alt if np.isfinite(self._alt) else np.nan, 0.0]
         self.grid.extend(row[None])
 
@@ -203,20 +186,13 @@ class CausalNavigator:
             else np.zeros((0, 3))
         vb_g = zoh(tv[ok], vb_new, grid_t, self._vb)
         tval_g = zoh(tv[ok], tv[ok], grid_t, np.asarray(self._t_valid))
-        w = self._level(np.nan_to_num(vb_g), att_g[:, 0], att_g[:, 1])
+        w = level(np.nan_to_num(vb_g), self.frame, att_g[:, 0], att_g[:, 1])
         w_prev = np.vstack([prev[[WX, WY]], w[:-1]])
-        # heading offset from the compass, causal circular mean over the first heading_init_s
         off = np.full(n, prev[OFF])
         if cfg.initial_heading is None:
-            hd = col["heading"]
-            use = np.isfinite(hd) & (tv <= self._t_start + cfg.heading_init_s)
-            if use.any():
-                k = iv[use]
-                z = np.exp(1j * (hd[use] - g_abs[np.clip(k, 0, n - 1)]))
-                csum = np.cumsum(np.r_[self._heading_sum, z])[1:]
-                j = np.searchsorted(tv[use], grid_t, side="right") - 1
-                off = np.where(j >= 0, np.angle(csum[np.clip(j, 0, None)]), prev[OFF])
-                self._heading_sum = complex(csum[-1])
+            use = np.isfinite(col["heading"]) & (tv <= self._t_start + cfg.heading_init_s)
+            off, self._heading_sum = heading_offset(col["heading"][use], tv[use], g_abs[np.clip(iv[use], 0, n - 1)],
+                                                    grid_t, self._heading_sum, float(prev[OFF]))
         psi_prev = np.r_[prev[G] + prev[OFF], (g_abs + off)[:-1]]
         if self.frame in ("earth", "ned"):
             step = w_prev * dt[:, None]

@@ -1,10 +1,10 @@
 """Helpers of :mod:`recon.nav_stream`: the grid-history table, zero-order-hold lookup, the
-constant-rate-turn displacement (the formula of :mod:`recon.nav`)."""
+constant-rate-turn displacement (the formula of :mod:`recon.nav`), gyro samples as rates, the start heading offset."""
 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from recon.frames import Mounting, attitude, rdi_earth_to_ned, to_body
 
@@ -76,3 +76,33 @@ def level(vb: F64, frame: str, pitch: F64, roll: F64) -> F64:
     if frame in ("earth", "ned"):
         return vb[:, :2]
     return np.asarray(attitude(np.zeros_like(pitch), pitch, roll).apply(vb), dtype=np.float64)[:, :2]
+
+
+def heading_offset(heading: F64, t_heading: F64, gyro_heading: F64, grid_t: F64, heading_sum: complex,
+                   previous: float) -> tuple[F64, complex]:
+    """The start heading offset (rad) at each of ``grid_t``: the circular mean so far of the compass ``heading``
+    (rad, at ``t_heading``, s) less the gyro-integrated heading ``gyro_heading`` at those times, continued from
+    the running sum ``heading_sum`` (``previous`` before the first of them). Returns the offsets and the new sum."""
+    if heading.size == 0:
+        return np.full(grid_t.size, previous), heading_sum
+    csum = np.cumsum(np.r_[heading_sum, np.exp(1j * (heading - gyro_heading))])[1:]
+    j = np.searchsorted(t_heading, grid_t, side="right") - 1
+    return np.where(j >= 0, np.angle(csum[np.clip(j, 0, None)]), previous), complex(csum[-1])
+
+
+def gyro_rates(t: ArrayLike, value: ArrayLike, kind: str, t_previous: float) -> tuple[F64, F64]:
+    """Gyro samples as body rates: times (n,) s and rates (n, 3) rad/s (a single-axis gyro fills z; a
+    ``delta`` gyro's increments become the mean rate since the previous sample, ``t_previous`` before the
+    first); samples with a non-finite time or rate are left out."""
+    tg = np.asarray(t, dtype=np.float64)
+    g = np.asarray(value, dtype=np.float64).reshape(tg.size, -1 if tg.size else 1)
+    graw = np.zeros((tg.size, 3))
+    if g.shape[1] == 3:
+        graw[:] = g
+    else:
+        graw[:, 2] = g[:, 0]
+    if kind == "delta":
+        dt = tg - np.r_[t_previous, tg[:-1]]
+        graw = np.where((np.isfinite(dt) & (dt > 0))[:, None], graw / np.where(dt > 0, dt, 1.0)[:, None], np.nan)
+    keep = np.all(np.isfinite(graw), axis=1) & np.isfinite(tg)
+    return tg[keep], graw[keep]
