@@ -76,7 +76,7 @@ def _errors(t: np.ndarray, ne: np.ndarray, tt: np.ndarray, truth: np.ndarray) ->
 
 
 def _pr(dets: list[tuple[float, float]], objs: list[tuple[str, float, float]], radius: float = 1.0) -> dict[str, float]:
-    from auvlink.pipeline.scoring import match
+    from auvlink.pipeline.truth_scores import match
 
     pairs = match(np.array(dets).reshape(-1, 2), np.array([(n, e) for _, n, e in objs]).reshape(-1, 2), radius)
     return {"precision": len(pairs) / len(dets) if dets else 0.0, "recall": len(pairs) / len(objs) if objs else 0.0,

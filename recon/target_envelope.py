@@ -1,6 +1,6 @@
 """The targets recon is built for, and the limits derived from them.
 
-The envelope is the object catalogue (``auvlink/sim/catalog.py``, the classes the classifier names): the
+The envelope is the object catalogue (``auvlink/sim/object_meshes.py``, the classes the classifier names): the
 largest object is 3.0 m long (the pipe and the half pipe), the lowest stands 0.3 m high (the half pipe).
 Every size limit of recon follows from those two and from how the sonar sees them; a new catalogue with
 other sizes changes these two numbers (``tests/test_recon_envelope.py`` checks them against the catalogue).

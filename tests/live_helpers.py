@@ -13,7 +13,7 @@ import numpy as np
 from scenes import obj, scene_toml
 
 from auvlink.config import load_config
-from auvlink.sim.live import serve
+from auvlink.sim.device_server import serve
 from auvlink.sim.scene import loads_scene
 from auvlink.virtual import free_tcp_port
 

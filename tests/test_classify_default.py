@@ -21,7 +21,7 @@ from classify.training.clutter_synth import synthesize_clutter
 from classify.training.synthesis import MeshSynthesizer, SynthesisSettings
 
 torch.set_num_threads(1)
-catalog = pytest.importorskip("auvlink.sim.catalog")
+catalog = pytest.importorskip("auvlink.sim.object_meshes")
 
 #: a `--quick` retrain (half the headings, one pass per direction, 12 epochs: about 45 s here) must reach
 #: the shipped model's held-out accuracy minus this (measured: 0.780 against 0.953)

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from auvlink.sim.catalog import mesh_for
+from auvlink.sim.object_meshes import mesh_for
 from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
 from classify.training.config import load_train_settings

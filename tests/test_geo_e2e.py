@@ -120,8 +120,8 @@ def test_without_gnss_the_outputs_say_positions_are_relative(tmp_path: Path) -> 
 def test_scoring_goes_through_lat_lon_when_the_datums_differ() -> None:
     from auvlink.geodesy import Datum
     from auvlink.pipeline.results import Detection
-    from auvlink.pipeline.scoring import score_detections
     from auvlink.pipeline.setup import MissionSetup, TruthObject
+    from auvlink.pipeline.truth_scores import score_detections
 
     site, other = Datum(*SITE), Datum(36.0400, 129.3900)  # the simulator's datum, the run's (e.g. a first fix)
     ne = np.array([[10.0, 5.0], [-20.0, 3.0]])

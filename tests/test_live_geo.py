@@ -16,7 +16,7 @@ from live_helpers import SCENE, TRUTH_NE, start, threads, vehicle_config
 
 from auvlink.config import load_config
 from auvlink.pipeline.live import LiveRun
-from auvlink.sim.live import serve
+from auvlink.sim.device_server import serve
 from auvlink.sim.scene import loads_scene
 
 pytestmark = [pytest.mark.live, pytest.mark.slow]

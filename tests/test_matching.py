@@ -1,5 +1,5 @@
 """One matching of detections to the truth: a mission's ``summary.json`` scores
-(:func:`auvlink.pipeline.scoring.score_detections`) and a survey's (:func:`auvlink.evaluation.score.score_survey`)
+(:func:`auvlink.pipeline.truth_scores.score_detections`) and a survey's (:func:`auvlink.evaluation.score.score_survey`)
 pair the same detections with the same true objects, ties included, as the documented rule says (nearest first;
 equal distances by detection index, then truth index; a non-finite position matches nothing)."""
 
@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 from auvlink.evaluation.score import score_survey
 from auvlink.pipeline.log_meta import TruthObject
 from auvlink.pipeline.results import Detection, MissionResult
-from auvlink.pipeline.scoring import match, score_detections
 from auvlink.pipeline.setup import MissionSetup
+from auvlink.pipeline.truth_scores import match, score_detections
 
 # positions on a 0.5 m grid: many pairs at exactly the same distance (ties); sometimes a NaN coordinate
 coordinate = st.one_of(st.integers(0, 6).map(lambda k: 0.5 * k), st.just(math.nan))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from auvlink.sim.catalog import CLASSES, mesh_for
+from auvlink.sim.object_meshes import CLASSES, mesh_for
 from recon.target_envelope import (
     LARGEST_OBJECT_M,
     LOWEST_OBJECT_M,

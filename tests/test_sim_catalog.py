@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auvlink.sim.catalog import CLASSES, bounding_sphere, class_material, mesh_for, placed_mesh
-from auvlink.sim.catalog_shapes import BUILDERS
+from auvlink.sim.mesh_builders import BUILDERS
+from auvlink.sim.object_meshes import CLASSES, bounding_sphere, class_material, mesh_for, placed_mesh
 from auvlink.sim.scene import SceneObject, Seabed
 from auvlink.sim.seabed import SeabedSurface
 

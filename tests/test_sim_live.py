@@ -14,7 +14,7 @@ import pytest
 
 from auvlink.cli.record import record
 from auvlink.config import load_config, loads_config
-from auvlink.sim.live import adapt, match_devices, serve
+from auvlink.sim.device_server import adapt, match_devices, serve
 from auvlink.sim.noise import SimError
 from auvlink.sim.scene import load_default_scene
 from auvlink.sim.settings import SimSettings

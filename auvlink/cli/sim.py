@@ -59,7 +59,7 @@ def _to_log(args: argparse.Namespace) -> int:
 
 
 def _live(args: argparse.Namespace) -> int:
-    from auvlink.sim.live import serve  # lazy: Open3D and trimesh (the parser imports every subcommand)
+    from auvlink.sim.device_server import serve  # lazy: Open3D and trimesh (the parser imports every subcommand)
 
     config = load_config(args.live)
     stop = threading.Event()

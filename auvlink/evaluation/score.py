@@ -1,7 +1,7 @@
 """Scoring a survey's detections against its truth, and pooling the scores over surveys and factor bins.
 
 Per survey (:func:`score_survey`): detections are matched to true objects greedily by horizontal
-distance (each at most once, within ``radius`` m; :func:`auvlink.pipeline.scoring.match`, as ``summary.json``'s
+distance (each at most once, within ``radius`` m; :func:`auvlink.pipeline.truth_scores.match`, as ``summary.json``'s
 scores); a match counts as correct when the classes agree
 (precision = correct / detections, recall = correct / objects), at 1 m and at 2 m. Failures are
 counted by kind, each detection and each object once:
@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from auvlink.pipeline.scoring import match
+from auvlink.pipeline.truth_scores import match
 
 ASSIGN_M = 2.5
 MERGE_PAD_M = 0.3

@@ -27,8 +27,8 @@ from scipy.spatial.transform import Rotation
 
 from auvlink.pipeline.collect import MissionData
 from auvlink.pipeline.setup import MissionSetup, nav_config
-from auvlink.sim.catalog import placed_mesh
 from auvlink.sim.mission import prepare, simulate_to_log, truth_pose
+from auvlink.sim.object_meshes import placed_mesh
 from auvlink.sim.scene import Scene
 from auvlink.sim.sonar_render import SonarRenderer
 from auvlink.sim.truth import TRAJECTORY_ATTACHMENT

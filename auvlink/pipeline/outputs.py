@@ -31,7 +31,7 @@ from auvlink.errors import AuvlinkError, OutputError
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.results_mcap import write_results_mcap
-from auvlink.pipeline.scoring import score_detections
+from auvlink.pipeline.truth_scores import score_detections
 from auvlink.safe_names import path_inside, safe_name
 from recon.ply import NED_COMMENT, write_ply
 

@@ -17,9 +17,9 @@ from scipy.spatial.transform import Rotation
 
 from auvlink.pipeline.report_geo import ToGeodetic, add_geography
 from auvlink.pipeline.results import Detection, MissionResult
-from auvlink.pipeline.scoring import match, truth_in_result_frame
 from auvlink.pipeline.setup import TruthObject
-from auvlink.sim.catalog import CLASSES, mesh_for
+from auvlink.pipeline.truth_scores import match, truth_in_result_frame
+from auvlink.sim.object_meshes import CLASSES, mesh_for
 
 MAP_POINTS = 4000  # highlight points drawn on the map at most (decimated evenly)
 CLOUD_POINTS = 3000  # points drawn per object cloud at most
@@ -46,7 +46,7 @@ class TruthMatch:
 
 
 def truth_match(result: MissionResult, radius: float = 1.0) -> TruthMatch | None:
-    """The same greedy matching as :func:`auvlink.pipeline.scoring.score_detections`; None without truth."""
+    """The same greedy matching as :func:`auvlink.pipeline.truth_scores.score_detections`; None without truth."""
     truth = result.setup.truth
     if not truth:
         return None

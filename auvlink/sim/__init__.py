@@ -4,8 +4,8 @@ Modules (imported on use; only :mod:`~auvlink.sim.scene` is light, the rest load
 
 - :mod:`auvlink.sim.scene` scene TOML -> frozen dataclasses (:func:`load_scene`,
   :func:`load_default_scene`); the object catalog's class names (:data:`CLASSES`).
-- :mod:`auvlink.sim.catalog` one procedural mesh per class (:func:`~auvlink.sim.catalog.mesh_for`),
-  objects placed on the seabed (:func:`~auvlink.sim.catalog.placed_mesh`).
+- :mod:`auvlink.sim.object_meshes` one procedural mesh per class (:func:`~auvlink.sim.object_meshes.mesh_for`),
+  objects placed on the seabed (:func:`~auvlink.sim.object_meshes.placed_mesh`).
 - :mod:`auvlink.sim.seabed` analytic sloped, rough seabed and ray intersection.
 - :mod:`auvlink.sim.trajectory` the vehicle's true pose, velocities and rates over time.
 - :mod:`auvlink.sim.sonar_render` sonar frames (512 bins x 96 beams, uint8) by ray casting.

@@ -80,7 +80,7 @@ class Acoustics:
 _COMMON: dict[str, Any] = {
     "vertical_extent": 3.0,  # +-1.5 widths, tapered over the outer 30 %: gaussian -27 dB at 1.05 widths
     "elevation_samples": 64,  # 0.67 deg apart over 42 deg; the image integrates between them (bench_sim)
-    "object_backscatter_db": 0.0,  # the catalogue materials' contrast alone (auvlink.sim.catalog)
+    "object_backscatter_db": 0.0,  # the catalogue materials' contrast alone (auvlink.sim.object_meshes)
     "object_specular_db": 10.0,  # smooth manufactured faces: a glint 10 dB over diffuse (assumption)
     "specular_width_deg": 8.0,  # specular lobe half width of a face rough on the mm scale (assumption)
     "seabed_backscatter_db": -27.0,  # Lambert mu, the classic -27 dB (Mackenzie 1961), sand-like

@@ -1,6 +1,6 @@
-"""Faults injected into ``auvlink sim --live`` serving (:func:`auvlink.sim.live.serve`, ``hook=Injector(...)``):
-what the live-loop tests need to check that ``auvlink live`` survives a port that goes and comes
-back, garbage in a stream and a stalled socket. The injector is a :class:`~auvlink.sim.live.PortHook`:
+"""Faults injected into ``auvlink sim --live`` serving (:func:`auvlink.sim.device_server.serve`,
+``hook=Injector(...)``): what the live-loop tests need to check that ``auvlink live`` survives a port that goes and
+comes back, garbage in a stream and a stalled socket. The injector is a :class:`~auvlink.sim.device_server.PortHook`:
 it acts on the ports only through their public methods."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
-from auvlink.sim.live import Port
+from auvlink.sim.device_server import Port
 
 
 @dataclass(frozen=True)
@@ -26,7 +26,7 @@ class Fault:
 
 
 class Injector:
-    """Applies the faults as mission time passes (a :class:`~auvlink.sim.live.PortHook`)."""
+    """Applies the faults as mission time passes (a :class:`~auvlink.sim.device_server.PortHook`)."""
 
     def __init__(self, faults: Iterable[Fault]) -> None:
         self.todo = sorted(faults, key=lambda f: f.at_s)

@@ -38,7 +38,7 @@ from scipy.spatial.transform import Rotation
 
 from auvlink.sim.acoustic_image import AcousticImager
 from auvlink.sim.acoustics import Acoustics, resolve
-from auvlink.sim.catalog import bounding_sphere, class_material, object_pose, placed_mesh
+from auvlink.sim.object_meshes import bounding_sphere, class_material, object_pose, placed_mesh
 from auvlink.sim.scene import Scene, SonarConfig
 from auvlink.sim.seabed import SeabedSurface
 from auvlink.sim.sonar_geometry import SonarGeometry

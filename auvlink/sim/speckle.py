@@ -32,7 +32,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from auvlink.sim.catalog import MATERIALS, Material
+from auvlink.sim.object_meshes import MATERIALS, Material
 
 F64 = NDArray[np.float64]
 U8 = NDArray[np.uint8]

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from auvlink.config import VehicleConfig, loads_config
 from auvlink.jsonutil import to_jsonable
-from auvlink.sim.catalog import bounding_sphere, object_pose, placed_mesh
+from auvlink.sim.object_meshes import bounding_sphere, object_pose, placed_mesh
 from auvlink.sim.scene import Scene
 from auvlink.sim.seabed import SeabedSurface
 from auvlink.sim.settings import SimSettings

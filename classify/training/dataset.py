@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from auvlink.progress import progress_bar
-from auvlink.sim.catalog import CLASSES, mesh_for
+from auvlink.sim.object_meshes import CLASSES, mesh_for
 from classify.errors import SynthesisError
 from classify.labels import CLUTTER
 from classify.training.synthesis import MeshSynthesizer, SynthesisSettings

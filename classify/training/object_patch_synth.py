@@ -10,13 +10,13 @@ from the geometry alone (no sonar image is rendered), with recon's code doing th
 * **Patch, object, lines** (drawn per view from :class:`classify.training.synthesis_settings.SynthesisSettings`): a
   seabed of roughness ``object_patch_roughness_m`` and slope ``clutter_slope_deg`` (any azimuth); the class's mesh at
   its origin, any heading, resting on the seabed and tilted with its mean plane (as the simulator places objects,
-  :func:`auvlink.sim.catalog.object_pose`); 1-3 lawnmower lines (``object_patch_lines``, alternate directions, any
+  :func:`auvlink.sim.object_meshes.object_pose`); 1-3 lawnmower lines (``object_patch_lines``, alternate directions, any
   heading) at an altitude ``clutter_altitude_m``, a tilt between the smallest and the largest of ``tilts_deg``, one
   frame every ``clutter_step_m`` metres, spaced ``clutter_spacing`` times the swath at the onset, the first line
   at a lateral offset that puts the object anywhere in its swath. Each line runs from where its onset is
   ``object_patch_lead_m`` before the object to past it, and is shifted by a misalignment of ``misalign_m``.
 * **Returns**: :func:`classify.training.seabed_returns.line_returns` with the mesh as an obstacle (its material's return
-  relative to steel's, :func:`auvlink.sim.catalog.class_material`).
+  relative to steel's, :func:`auvlink.sim.object_meshes.class_material`).
 * **Recon**: :func:`classify.training.clutter_synth.recon_clusters`; the view is the cluster (per line or fused over
   lines) holding the most points within the object's footprint, with the seabed depth recon gives it, after the
   front-slope correction blended by ``correction_blend``. A view whose cluster's centre lies more than
@@ -33,7 +33,7 @@ import zlib
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.sim.catalog import class_material, object_pose
+from auvlink.sim.object_meshes import class_material, object_pose
 from auvlink.sim.scene import SceneObject
 from auvlink.sim.seabed import SeabedSurface
 from classify.errors import SynthesisError

@@ -6,7 +6,7 @@ Every ray of the fan (``clutter_rays_per_beam`` per beam) is intersected with th
 (:meth:`auvlink.sim.seabed.SeabedSurface.intersect_soa`) and, with an obstacle, with its mesh (Open3D); its return
 is that of :func:`classify.training.scan_synth.energy_first_return` (the simulator's ``cos^2 / r^2``, speckle
 ``cos_jitter``, recon's threshold and run rule), times the reflection of what it met relative to the steel the object
-synthesis is calibrated on (:data:`auvlink.sim.catalog.MATERIALS`). A first return closer than the steepest ray's
+synthesis is calibrated on (:data:`auvlink.sim.object_meshes.MATERIALS`). A first return closer than the steepest ray's
 onset on the mean plane less ``onset_margin_m`` is a highlight-extension point, placed on the steepest ray (range lag
 ``range_bias_m``, jitter ``range_sigma_m``); the first return in the band after the onset is a seabed return
 (recon's ``returns_between``), and the seabed under the vehicle a DVL bottom point.
@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from auvlink.sim.catalog import MATERIALS, Material
+from auvlink.sim.object_meshes import MATERIALS, Material
 from auvlink.sim.scene import Seabed
 from auvlink.sim.seabed import SeabedSurface
 from classify.training.scan_synth import HALF_FOV_DEG, arc_vectors, energy_first_return, sonar_rays
@@ -35,7 +35,7 @@ _CHUNK = 64  # positions per energy evaluation
 
 def relative_to_steel(material: Material) -> float:
     """A material's return (weight x reflection coefficient) relative to the steel the object synthesis is
-    calibrated on (:data:`auvlink.sim.catalog.MATERIALS`)."""
+    calibrated on (:data:`auvlink.sim.object_meshes.MATERIALS`)."""
     steel = MATERIALS["steel"]
     return (material.weight * material.reflection) / (steel.weight * steel.reflection)
 

@@ -1,7 +1,7 @@
 """Procedural builders for the object catalog's meshes (trimesh primitives, z-up build frame).
 
 Every builder returns a list of closed, consistently wound components in a *z-up* build frame
-with the footprint centred on the origin and the base at ``z = 0``; :mod:`auvlink.sim.catalog`
+with the footprint centred on the origin and the base at ``z = 0``; :mod:`auvlink.sim.object_meshes`
 turns the list into one mesh in the object's FRD frame (z down). Components may overlap (there is
 no boolean engine here), each one is watertight with outward normals.
 """

@@ -30,7 +30,7 @@ import trimesh
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from auvlink.sim.catalog_shapes import BUILDERS
+from auvlink.sim.mesh_builders import BUILDERS
 from auvlink.sim.scene import CLASSES, SceneObject
 from auvlink.sim.seabed import SeabedSurface
 

@@ -1,4 +1,5 @@
-"""The simulated vehicle live: its devices on virtual ports named by a vehicle configuration file.
+"""The simulated vehicle live (``auvlink sim --live``): its devices served on virtual ports named by a vehicle
+configuration file.
 
     auvlink sim --scene S.toml --live examples/virtual_ports.toml [--speed X] [--duration S]
 
