@@ -33,8 +33,9 @@ N_BINS = 512
 HALF_FOV_DEG = 14.5
 
 
-class SonarGeometry:
-    """Per-device constants: ray directions in S and B, beam per ray, range bins."""
+class RayFan:
+    """The simulator's rays of one device: ray directions in S and B, beam per ray, range bins. (Recon's view of
+    the same sonar, beams and bins without rays, is :class:`recon.sonar_geometry.SonarGeometry`.)"""
 
     def __init__(self, config: SonarConfig, rays_per_beam: int | None = None,
                  n_beams: int = N_BEAMS, n_bins: int = N_BINS) -> None:
@@ -136,3 +137,7 @@ class SonarGeometry:
                 objects.append(int(j))
                 rays.append(kk * self.n_beams + nn + lo)
         return objects, rays
+
+
+#: the name the renderers import (:mod:`auvlink.sim.sonar_render`, :mod:`auvlink.sim.acoustic_image`)
+SonarGeometry = RayFan
