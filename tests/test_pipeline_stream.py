@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from live_helpers import SCENE, TRUTH_NE
 
-from auvlink.evaluation.batch import run_log_batch
+from auvlink.evaluation.noncausal_reference import run_log_batch
 from auvlink.pipeline.collect import MissionData
 from auvlink.pipeline.engine_config import EngineConfig
 from auvlink.pipeline.process import run_log

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from scenes import scene_toml
 
 import recon.reconstructor as rp
-from auvlink.evaluation.batch import run_log_batch
+from auvlink.evaluation.noncausal_reference import run_log_batch
 from auvlink.pipeline.process import run_log
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.scene import loads_scene

@@ -5,5 +5,5 @@ benchmarks, ``auvlink eval``). Nothing is imported here; import the module you u
   cluster errors, point-to-mesh accuracy, dead-reckoning drift on a simulated log).
 - :mod:`auvlink.evaluation.recon_eval`: clouds recon reconstructs from simulated passes over single
   objects, and the classifier scored on them (``auvlink eval --recon``, ``auvlink train --recon-eval``).
-- :mod:`auvlink.evaluation.batch`: the non-causal batch reference of the pipeline on a mission log.
+- :mod:`auvlink.evaluation.noncausal_reference`: the non-causal batch reference of the pipeline on a mission log.
 """

@@ -5,7 +5,7 @@ operation, for the channels whose wire format a stage consumes
 (:data:`auvlink.pipeline.nav_inputs.CONSUMED_FORMATS`; the others are counted, not decoded), and
 the samples through :class:`auvlink.pipeline.engine.Engine`, the engine of ``auvlink live``. Each
 stage is timed; the result (:mod:`auvlink.pipeline.results`) carries everything the outputs and the
-report need. The non-causal batch reference for tests is :func:`auvlink.evaluation.batch.run_log_batch`.
+report need. The non-causal batch reference for tests is :func:`auvlink.evaluation.noncausal_reference.run_log_batch`.
 """
 
 from __future__ import annotations
