@@ -160,6 +160,16 @@ _FIX = {"float": "write a plain number, e.g. 1.0", "finite": "write a plain numb
         "int": "write a whole number, e.g. 4", "string": "quote it", "bool": "write true or false"}
 
 
+#: most characters of a bad value quoted in an error line (a 10,000-entry list is named, not printed)
+SHOWN_CHARS = 80
+
+
+def _shown(value: Any) -> str:
+    """``repr(value)``, cut to :data:`SHOWN_CHARS` characters."""
+    text = repr(value)
+    return text if len(text) <= SHOWN_CHARS else text[:SHOWN_CHARS - 3] + "..."
+
+
 def config_error(root: Any, exc: ValidationError, prefix: str = "") -> ConfigError:
     """The first of pydantic's errors in the project's form (key, problem, fix)."""
     errors = exc.errors(include_url=False)
@@ -174,29 +184,33 @@ def config_error(root: Any, exc: ValidationError, prefix: str = "") -> ConfigErr
         return ConfigError(key, "unknown key", f"allowed here: {', '.join(allowed)}")
     if kind == "missing" and err["loc"] and isinstance(err["loc"][-1], int):  # a vector too short
         n = len(typing.get_args(_strip(getattr(info, "annotation", None)))) or err["loc"][-1] + 1
-        return ConfigError(key, f"expected a list of {n} numbers, got {value!r}", f"write [{', '.join(['0.0'] * n)}]")
+        return ConfigError(key, f"expected a list of {n} numbers, got {_shown(value)}",
+                           f"write [{', '.join(['0.0'] * n)}]")
     if kind.startswith(("datetime", "date_")):
-        return ConfigError(key, f"not an ISO 8601 time: {value!r}", 'write "2026-01-01T00:00:00Z"')
+        return ConfigError(key, f"not an ISO 8601 time: {_shown(value)}", 'write "2026-01-01T00:00:00Z"')
     if kind == "missing" or kind == "missing_argument":
         return ConfigError(key, "missing", f"add `{name} = ...`")
     if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
         shown = value if isinstance(value, int) else float(value)
         return ConfigError(key, f"{shown} is out of range", f"use a value in {_bounds(info)}")
+    if kind == "too_long" and "max_length" in ctx and isinstance(value, list | tuple) \
+            and typing.get_origin(_strip(getattr(info, "annotation", None))) is not tuple:  # objects, ...
+        return ConfigError(key, f"{len(value)} entries are too many", f"use at most {ctx['max_length']}")
     if kind in ("too_short", "too_long") and isinstance(value, list | tuple):
         n = len(typing.get_args(_strip(getattr(info, "annotation", None))))
-        return ConfigError(key, f"expected a list of {n} numbers, got {value!r}",
+        return ConfigError(key, f"expected a list of {n} numbers, got {_shown(value)}",
                            f"write [{', '.join(['0.0'] * n)}]")
     if kind == "literal_error":
-        return ConfigError(key, f"{value!r} is not allowed", f"use one of {ctx.get('expected', '')}")
+        return ConfigError(key, f"{_shown(value)} is not allowed", f"use one of {ctx.get('expected', '')}")
     if kind in ("dataclass_type", "model_type", "dict_type", "model_attributes_type"):
         return ConfigError(key, f"expected a table, got {type(value).__name__}", f"write [{key}] or {name} = {{ ... }}")
     if kind in ("tuple_type", "list_type"):
-        return ConfigError(key, f"expected a list, got {value!r}", f"write {name} = [ ... ]")
+        return ConfigError(key, f"expected a list, got {_shown(value)}", f"write {name} = [ ... ]")
     if kind == "string_too_short":
-        return ConfigError(key, f"must be a non-empty string, got {value!r}", "quote it")
+        return ConfigError(key, f"must be a non-empty string, got {_shown(value)}", "quote it")
     base = kind.split("_")[0]
     if base in _KIND or kind == "finite_number":
-        return ConfigError(key, f"expected {_KIND.get(base, 'a finite number')}, got {value!r}",
+        return ConfigError(key, f"expected {_KIND.get(base, 'a finite number')}, got {_shown(value)}",
                            _FIX.get(base, "fix the value"))
     return ConfigError(key, err["msg"].removeprefix("Value error, "), "")
 

@@ -55,7 +55,7 @@ def test_classify_unknown_keys_and_bounds(tmp_path: Path) -> None:
                             ("[synthesis]\nrays_per_bean = 3\n", "synthesis.rays_per_bean", "rays_per_beam"),
                             ("[train.augment]\nyawn = true\n", "train.augment.yawn", "yaw"),
                             ("[bogus]\n", "bogus", "quick, synthesis, train"),
-                            ("[synthesis]\nn_points = 100000000\n", "synthesis.n_points", "1000000")]:
+                            ("[synthesis]\nn_points = 100000000\n", "synthesis.n_points", "16384")]:
         p = tmp_path / "t.toml"
         p.write_text(text)
         e = _err(load_train_settings, p)

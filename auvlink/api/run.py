@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 from collections.abc import Callable, Iterator
@@ -14,6 +15,10 @@ from auvlink.errors import AuvlinkError
 
 if TYPE_CHECKING:
     from auvlink.pipeline.results import Detection, MissionResult
+
+
+#: most detections a replay holds for a slow consumer (a survey makes a few hundred)
+MAX_BUFFER = 100_000
 
 
 class _Stopped(Exception):
@@ -127,8 +132,10 @@ def replay(log: str | Path | MissionLog, *, classify: bool = True, model: str | 
     path = log.path if isinstance(log, MissionLog) else Path(log)
     if not path.is_file():
         raise AuvlinkError(f"{path}: no such log")
-    if speed is not None and speed <= 0:
-        raise AuvlinkError(f"speed must be > 0, got {speed}")
+    if speed is not None and not (math.isfinite(speed) and speed > 0):
+        raise AuvlinkError(f"speed must be a finite number > 0, got {speed} (None: as fast as possible)")
+    if not 1 <= buffer <= MAX_BUFFER:  # queue.Queue takes 0 or less as "unbounded"
+        raise AuvlinkError(f"buffer must be in [1, {MAX_BUFFER}] detections, got {buffer}")
     ckpt = Path(model) if model is not None else None
     return ReplayRun(lambda cb: run_log(path, speed=speed, model=ckpt, classify=classify, progress=progress,
                                         on_detection=cb), buffer=buffer)

@@ -77,9 +77,35 @@ def render_report(out: Path) -> Path:
         results = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
         raise AuvlinkError(f"cannot read {path}: {exc}") from exc
+    if not _is_bench_results(results):
+        raise AuvlinkError(f"{path} is not a benchmark results file (no 'stages' table); choose another --out")
     report = _load("report", "no report generator")
     html_path: Path = report.render(results, out)
     return html_path
+
+
+def _is_bench_results(results: object) -> bool:
+    """Whether ``results`` (parsed JSON) is what :func:`run` writes: a table with a ``stages`` table of tables."""
+    stages = results.get("stages") if isinstance(results, dict) else None
+    return isinstance(stages, dict) and all(isinstance(s, dict) for s in stages.values())
+
+
+def _previous_stages(path: Path) -> dict[str, Any]:
+    """The stages of an earlier run in ``path`` (none when absent or unreadable); a file that is not a
+    benchmark's results is refused, never replaced."""
+    if not path.is_file():
+        if path.exists() or path.is_symlink():
+            raise AuvlinkError(f"{path} is not a regular file; choose another --out")
+        return {}
+    try:
+        previous = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+    if not _is_bench_results(previous):
+        raise AuvlinkError(f"{path} is not a benchmark results file (no 'stages' table) and would be replaced; "
+                           "choose another --out")
+    stages: dict[str, Any] = previous["stages"]
+    return stages
 
 
 def _machine() -> dict[str, Any]:
@@ -99,7 +125,10 @@ def run(args: argparse.Namespace) -> int:
     if args.smoke:
         os.environ["AUVLINK_BENCH_SMOKE"] = "1"
     mode = "smoke" if args.smoke else "full" if args.full else "quick"
+    if args.out.exists() and not args.out.is_dir():
+        raise AuvlinkError(f"--out {args.out} is not a folder; choose a new or existing folder")
     args.out.mkdir(parents=True, exist_ok=True)
+    previous = _previous_stages(args.out / "results.json")  # checked before the stages run (minutes)
     t_start = time.perf_counter()
     load_before = os.getloadavg()
     results: dict[str, Any] = {
@@ -129,12 +158,6 @@ def run(args: argparse.Namespace) -> int:
     results["wall_s"] = time.perf_counter() - t_start
     results["loadavg_after"] = list(os.getloadavg())
     path = args.out / "results.json"
-    previous: dict[str, Any] = {}
-    if path.is_file():
-        try:
-            previous = json.loads(path.read_text()).get("stages", {})
-        except (OSError, ValueError):
-            previous = {}
     results["stages"] = {**previous, **results["stages"]}
     write_text(path, json.dumps(to_jsonable(results), indent=2, allow_nan=False) + "\n")  # atomic: never half
     print(f"\nresults: {path}")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -69,8 +70,9 @@ def check_inputs(log: Path, speed: float | None) -> None:
     """What can be checked of the input before any work."""
     if not log.is_file():
         raise AuvlinkError(f"{log}: no such log")
-    if speed is not None and speed <= 0:
-        raise AuvlinkError(f"--speed must be > 0, got {speed}")
+    if speed is not None and not (math.isfinite(speed) and speed > 0):
+        raise AuvlinkError(f"--speed must be a finite number > 0, got {speed} (leave it out, or --fast, for "
+                           "as fast as possible)")
 
 
 def engine_line(summary: dict[str, object]) -> str | None:

@@ -20,7 +20,7 @@ import argparse
 from pathlib import Path
 
 from auvlink.atomic import check_output_dir, check_output_file
-from auvlink.errors import AuvlinkError
+from auvlink.cli.survey_options import check_survey_options
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -50,10 +50,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
     if args.calibrate_surveys is not None:
-        if args.calibrate_surveys < 1:
-            raise AuvlinkError(f"--calibrate-surveys must be >= 1, got {args.calibrate_surveys}")
-        if args.workers < 1:
-            raise AuvlinkError(f"--workers must be >= 1, got {args.workers}")
+        check_survey_options(("--calibrate-surveys", args.calibrate_surveys), ("--calibrate-seed", args.calibrate_seed),
+                             args.workers)
         if args.calibrate_out is not None:
             check_output_dir(args.calibrate_out, force=args.force, option="--calibrate-out")
     # lazy: PyTorch and Open3D load only for this command (the parser imports every subcommand module)

@@ -40,7 +40,7 @@ import numpy as np
 from auvlink.progress import progress_bar
 from auvlink.sim.emit import Event, block_events, device_formats
 from auvlink.sim.noise import NoiseConfig, SimError
-from auvlink.sim.scene import Scene
+from auvlink.sim.scene import MAX_MISSION_S, Scene
 from auvlink.sim.sensors import Measurements, measure, sample_times
 from auvlink.sim.settings import SimSettings, check_budget, settings_for
 from auvlink.sim.sonar_render import SonarRenderer
@@ -99,8 +99,9 @@ def prepare(scene: Scene, seed: int | None = None, duration: float | None = None
     if noise is not None:
         settings = replace(settings, noise=noise if isinstance(noise, NoiseConfig) else
                            (NoiseConfig() if noise else NoiseConfig.off()))
-    if duration is not None and not (math.isfinite(duration) and duration > 0):
-        raise SimError(f"the duration must be a positive number of seconds, got {duration}")
+    if duration is not None and not (math.isfinite(duration) and 0 < duration <= MAX_MISSION_S):
+        raise SimError(f"the duration must be a number of seconds in (0, {MAX_MISSION_S:.0f}] (12 h, a scene's "
+                       f"longest mission), got {duration}")
     check_budget(scene, settings)
     traj = LawnmowerTrajectory.from_scene(scene)
     return Run(scene, settings, traj, measure(scene, settings, duration, traj))
@@ -169,6 +170,10 @@ def iter_blocks(run: Run, block_s: float = BLOCK_S, pool: Pool | None = None,
         yield events
 
 
+#: most worker processes: 16 x the 16-core machines the benchmarks ran on (each holds the scene and measurements)
+MAX_WORKERS = 256
+
+
 def default_workers(run: Run) -> int:
     frames = len(run.measurements.sonar.t)
     return 1 if frames < POOL_MIN_FRAMES else max(1, min(2, os.cpu_count() or 1))
@@ -181,7 +186,9 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
     """Simulate the scene's survey into the mission log ``out_path`` (see the module docstring)."""
     t_wall = time.perf_counter()
     run = prepare(scene, seed, duration, settings=settings, noise=noise)
-    n_workers = default_workers(run) if workers is None else max(1, workers)
+    if workers is not None and not 1 <= workers <= MAX_WORKERS:
+        raise SimError(f"the number of workers must be in [1, {MAX_WORKERS}], got {workers}")
+    n_workers = default_workers(run) if workers is None else workers
     formats = device_formats(run.measurements)
     start = run.settings.sensors.start_ns
     meta, attachments = ground_truth(run.scene, run.settings, run.duration, truth_pose(run), formats,

@@ -16,21 +16,25 @@ from typing import Annotated, Any
 
 from pydantic import ConfigDict, Field, create_model
 
-from auvlink.errors import ConfigError
+from auvlink.errors import AuvlinkError, ConfigError
 from auvlink.validation import CONFIG, Boolean, Integer, Number, Text, read_toml, validate
+from classify.checkpoint_meta import MAX_MEMBERS, MAX_POINTS, MAX_WIDTH
 from classify.training.augment import AugmentConfig
 from classify.training.synthesis import SynthesisSettings
 from classify.training.train import TrainConfig
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "data" / "train_default.toml"
 
+#: finest heading step: 3600 headings per class, 180 x the shipped 20 deg (a finer step only multiplies the synthesis)
+MIN_HEADING_STEP_DEG = 0.1
 #: bounds of the training settings (ge, le) or ("gt", lo, le) where a size could exhaust memory
 _BOUNDS: dict[str, tuple[Any, ...]] = {
     "epochs": (1, 100_000), "batch_size": (1, 65_536), "patience": (0, 100_000), "threads": (1, 1024),
-    "n_points": (1, 1_000_000), "candidates": (1, 10_000_000), "copies": (1, 10_000), "rays_per_beam": (1, 1024),
+    "n_points": (1, MAX_POINTS), "members": (1, MAX_MEMBERS + 1), "candidates": (1, 10_000_000),
+    "copies": (1, 10_000), "rays_per_beam": (1, 1024),
     "min_run": (1, 10_000), "seed": (0, 2**63 - 1), "val_fraction": (0.0, 0.99), "dropout": (0.0, 0.99),
-    "lr": ("gt", 0.0, 10.0), "width": ("gt", 0.0, 64.0), "spread_deg": ("gt", 0.0, 90.0),
-    "heading_step_deg": ("gt", 0.0, 360.0), "step_m": ("gt", 0.0, 100.0), "bin_m": ("gt", 0.0, 100.0),
+    "lr": ("gt", 0.0, 10.0), "width": ("gt", 0.0, MAX_WIDTH), "spread_deg": ("gt", 0.0, 90.0),
+    "heading_step_deg": (MIN_HEADING_STEP_DEG, 360.0), "step_m": ("gt", 0.0, 100.0), "bin_m": ("gt", 0.0, 100.0),
     "cut_prob": (0.0, 1.0), "dropout_max": (0.0, 1.0), "fused_prob": (0.0, 1.0), "partial_prob": (0.0, 1.0),
     "clutter_clouds": (0, 100_000), "clutter_rays_per_beam": (2, 1024), "clutter_line_m": ("gt", 0.0, 1000.0),
     "clutter_poll_m": ("gt", 0.0, 100.0), "run_span_m": (0.0, 10.0), "object_patch_views": (0, 100_000),
@@ -118,6 +122,11 @@ def load_train_settings(path: Path | None = None, quick: bool = False) -> TrainS
 
 def with_overrides(s: TrainSettings, epochs: int | None = None, seed: int | None = None,
                    threads: int | None = None) -> TrainSettings:
+    """``s`` with the command line's ``--epochs``, ``--seed``, ``--threads``, each checked as in ``[train]``."""
+    for option, value in (("epochs", epochs), ("seed", seed), ("threads", threads)):
+        lo, hi = _BOUNDS[option]
+        if value is not None and not lo <= value <= hi:
+            raise AuvlinkError(f"--{option} must be an integer in [{lo}, {hi}], got {value}")
     train = s.train
     if threads is not None:
         train = replace(train, threads=threads)
