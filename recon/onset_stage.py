@@ -21,7 +21,7 @@ from recon.errors import ReconError
 from recon.highlight import frame_thresholds, onset_rows
 from recon.recon_config import ReconConfig
 from recon.seabed import SeabedModel
-from recon.seabed_band import OnsetTracker, seabed_returns
+from recon.seabed_band import SEABED_BAND, OnsetTracker, seabed_returns
 from recon.seabed_memory import SeabedMemory
 from recon.sonar_geometry import SonarGeometry
 
@@ -50,7 +50,7 @@ class OnsetStage:
 
     def __init__(self, geometry: SonarGeometry, config: ReconConfig, memory: SeabedMemory) -> None:
         self.geometry, self.config, self.memory = geometry, config, memory
-        self._tracker = OnsetTracker(geometry.n_beams, config.band)
+        self._tracker = OnsetTracker(geometry.n_beams, SEABED_BAND)
         self._cache: tuple[F64, F64, int, SeabedModel] | None = None
         self._model: SeabedModel | None = None  # the fit behind the latest expected onsets
         self._fit_frame = 0
@@ -58,7 +58,7 @@ class OnsetStage:
     def run(self, frames_before: int, images: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64) -> FrameOnsets:
         """The onsets, thresholds and seabed returns of ``images`` (F, bins, beams) at poses ``pos``, ``rot`` and
         DVL altitudes ``alt``; ``frames_before`` counts the frames recon took before this batch."""
-        g, hc, band = self.geometry, self.config.highlight, self.config.band
+        g, hc, band = self.geometry, self.config.highlight, SEABED_BAND
         onset = self._predicted(frames_before, pos, rot, alt)
         # the threshold's statistics come from the water column before the widest seabed search
         water = onset_rows(g, onset, hc.margin_m + max(band.lead_m, band.lead_flat_m))
@@ -69,9 +69,7 @@ class OnsetStage:
         self._tracker.set_known(known)
         lead_m = band.lead_m if known else band.lead_flat_m
         sf, sb, sr = seabed_returns(g, images, onset, thr, hc.margin_m, band, lead_m)
-        if band.correct_onset:
-            onset = self._tracker.correct(g, onset, sf, sb, sr)
-        return FrameOnsets(onset, thr, (sf, sb, sr))
+        return FrameOnsets(self._tracker.correct(g, onset, sf, sb, sr), thr, (sf, sb, sr))
 
     def _predicted(self, frames_before: int, pos: F64, rot: Rotation, alt: F64) -> F64:
         """Expected seabed onset per frame and beam: the fitted seabed plane where the fan looks, else a flat
@@ -97,8 +95,9 @@ class OnsetStage:
         return g.onset_ranges(pos, rot, q, n)
 
     def _slope_known(self, model: SeabedModel | None) -> bool:
-        """True when ``model`` was fitted over ``band.known_span_m`` of seabed or more (its slope ahead is known)."""
-        return model is not None and model.span >= self.config.band.known_span_m
+        """True when ``model`` was fitted over ``SEABED_BAND.known_span_m`` of seabed or more (its slope ahead is
+        known)."""
+        return model is not None and model.span >= SEABED_BAND.known_span_m
 
     def _seabed_model(self, frames_before: int, pos: F64) -> SeabedModel | None:
         """Seabed model around ``pos`` for the onset, refitted when the data or the area changed."""

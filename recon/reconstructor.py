@@ -34,6 +34,7 @@ from recon.onset_stage import OnsetStage
 from recon.range_arcs import arc_columns
 from recon.recon_config import ReconConfig
 from recon.seabed import SeabedModel
+from recon.seabed_band import SEABED_BAND
 from recon.seabed_evidence import add_seabed_returns, initial_dvl_points, pull_dvl_points
 from recon.seabed_memory import SeabedMemory
 from recon.seabed_texture import TexturedSeabed
@@ -108,7 +109,7 @@ class Reconstructor:
         self.last_returns = (fi, bi, ri)
         pts = np.asarray(project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype), dtype=np.float64)  # 3. points
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if cfg.front_slope else np.zeros((fi.size, 0))
-        add_seabed_returns(self.memory, g, cfg.band, hc.margin_m, cfg.texture.enabled, self.frames, onsets,
+        add_seabed_returns(self.memory, g, SEABED_BAND, hc.margin_m, cfg.texture.enabled, self.frames, onsets,
                            (fi, bi, ri), pos, rot)  # 4. seabed
         self.memory.add_highlights(pts)
         self._objects.add(pts, ts[fi], arcs)  # 5. clusters, at the next poll

@@ -40,6 +40,8 @@ I64 = NDArray[np.int64]
 
 @dataclass(frozen=True)
 class BandConfig:
+    """The seabed band search (:func:`seabed_returns`) and the onset tracking (:class:`OnsetTracker`)."""
+
     lead_m: float = 1.0  # m of range: search from this far before the expected onset (its error must be less)
     lead_flat_m: float = 3.0  # m of range: the same while the seabed fitted so far spans less than ...
     known_span_m: float = 15.0  # m (its slope is not known yet)
@@ -55,7 +57,10 @@ class BandConfig:
     # m of range: the onset is never moved farther than this beyond the fit's (a seabed searched past its true
     # onset turns into highlight points; an onset put too near only shortens the highlights)
     max_deeper_m: float = 0.1
-    correct_onset: bool = True  # the highlight search uses the onset corrected by the measured returns
+
+
+#: the seabed band search and onset tracking recon runs with (fixed: their sources are the comments above)
+SEABED_BAND = BandConfig()
 
 
 def seabed_returns(geometry: SonarGeometry, images: NDArray[np.uint8], onset: F64, thr: F64, margin_m: float,
