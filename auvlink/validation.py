@@ -249,6 +249,8 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], str]:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise ConfigError(what, f"cannot read {p}: {exc.strerror or exc}", "check the path") from exc
+    except UnicodeDecodeError as exc:  # a binary file given for a TOML one
+        raise ConfigError(what, f"{p} is not UTF-8 text (byte {exc.start})", "give the TOML file") from exc
     return loads_toml(text, what), text
 
 
@@ -257,6 +259,8 @@ def loads_toml(text: str, what: str) -> dict[str, Any]:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(what, f"not valid TOML: {exc}", "fix the TOML syntax at the position given") from exc
+    except RecursionError as exc:  # tomllib recurses once per nested array or inline table
+        raise ConfigError(what, "arrays or tables nested too deeply", "write a plain TOML file") from exc
 
 
 def plain(obj: Any) -> Any:

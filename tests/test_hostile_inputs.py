@@ -179,3 +179,36 @@ def test_api_replay_checks_its_arguments(kwargs: dict[str, float], says: str, sm
 
     with pytest.raises(AuvlinkError, match=says):
         auvlink.replay(small_mission_log, classify=False, **kwargs)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("argv", "says"), [
+    (["--surveys", "1000000000"], "--surveys"),
+    (["--surveys", "1", "--seed", "-5"], "--seed"),
+    (["--surveys", "1", "--seed", str(2**70)], "--seed"),
+    (["--surveys", "1", "--workers", "100000"], "--workers"),
+    (["--seed", "-5"], "--seed"),
+])
+def test_eval_refuses_survey_options_out_of_range(argv: list[str], says: str, tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    line = _cli_error(["eval", "--out", str(tmp_path / "e"), *argv], capsys)
+    assert says in line
+    assert not (tmp_path / "e").exists()
+
+
+# -- files that are not what they should be ------------------------------------------------------------------------
+@pytest.mark.parametrize(("content", "says"), [
+    (bytes(range(128, 256)) * 40, "not UTF-8"),
+    (b"seed = " + b"[" * 100_000 + b"]" * 100_000, "nested too deeply"),
+])
+def test_scene_file_that_is_not_toml_text(content: bytes, says: str, tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    scene = tmp_path / "s.toml"
+    scene.write_bytes(content)
+    assert says in _cli_error(["sim", "--scene", str(scene), "--out", str(tmp_path / "o.mcap"), "--quiet"], capsys)
+
+
+def test_sim_seed_beyond_63_bits(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    line = _cli_error(["sim", "--out", str(tmp_path / "o.mcap"), "--duration", "1", "--quiet", "--seed", str(2**80)],
+                      capsys)
+    assert "seed" in line
+    assert not (tmp_path / "o.mcap").exists()

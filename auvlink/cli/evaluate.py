@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from auvlink.atomic import check_output_dir, check_output_file, write_text
+from auvlink.cli.survey_options import check_survey_options
 from auvlink.evaluation.acoustic_draw import SPACES
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
@@ -84,6 +85,7 @@ EVAL_OUTPUTS = frozenset({"eval.json", "confusion.png", "baseline2d.json", "base
 
 
 def run(args: argparse.Namespace) -> int:
+    check_survey_options(("--surveys", args.surveys), ("--seed", args.seed), args.workers)  # before any work
     refuse_input_overwrite([args.model], folder=("--out", args.out),
                            writes=lambda rel: rel.parts[0] in EVAL_OUTPUTS)
     with output_dir_lock(args.out, force=args.force):  # DIR is this run's until it ends
@@ -150,15 +152,10 @@ def _baseline(args: argparse.Namespace, class_names: tuple[str, ...], cache: Pat
 
 
 def _surveys(args: argparse.Namespace) -> int:
-    from auvlink.errors import AuvlinkError
     from auvlink.evaluation.surveys import run_surveys
     from auvlink.evaluation.tables import class_table, interval_line, plot, text_table
     from auvlink.jsonutil import to_jsonable
 
-    if args.surveys < 1:
-        raise AuvlinkError(f"--surveys must be >= 1, got {args.surveys}")
-    if args.workers < 1:
-        raise AuvlinkError(f"--workers must be >= 1, got {args.workers}")
     check_output_dir(args.out, force=args.force)  # the surveys' folders of an earlier run are replaced
     calibrated = args.calibrated_model
     if calibrated is not None:

@@ -40,7 +40,7 @@ import numpy as np
 from auvlink.progress import progress_bar
 from auvlink.sim.emit import Event, block_events, device_formats
 from auvlink.sim.noise import NoiseConfig, SimError
-from auvlink.sim.scene import MAX_MISSION_S, Scene
+from auvlink.sim.scene import MAX_MISSION_S, MAX_SEED, Scene
 from auvlink.sim.sensors import Measurements, measure, sample_times
 from auvlink.sim.settings import SimSettings, check_budget, settings_for
 from auvlink.sim.sonar_render import SonarRenderer
@@ -92,8 +92,8 @@ def prepare(scene: Scene, seed: int | None = None, duration: float | None = None
     ``noise=False`` gives the noise-free mode, a :class:`NoiseConfig` replaces the scene's.
     """
     if seed is not None:
-        if seed < 0:
-            raise SimError(f"the seed must be >= 0, got {seed}")
+        if not 0 <= seed <= MAX_SEED:
+            raise SimError(f"the seed must be in [0, {MAX_SEED}] (a scene's seed), got {seed}")
         scene = replace(scene, seed=seed)
     settings = settings_for(scene) if settings is None else settings
     if noise is not None:

@@ -58,6 +58,8 @@ MAX_LINE_SPACING_M = 1000.0
 MAX_MISSION_S = 12 * 3600.0
 MAX_RAYS_PER_BEAM = 256
 MAX_OFFSET_M = 100_000.0
+#: largest seed: 63 bits, what every consumer of the seed (numpy's SeedSequence, JSON readers, the log) keeps exactly
+MAX_SEED = 2**63 - 1
 
 Angle = Annotated[Number, Field(ge=-360.0, le=360.0)]
 Offset = Annotated[Vec2, Field(description="north, east (m) in the world frame")]
@@ -139,7 +141,7 @@ class Vehicle:
 class SceneFile:
     """A scene file as written. ``sensors`` and ``noise`` are validated by :mod:`auvlink.sim.settings`."""
 
-    seed: Annotated[Integer, Field(ge=0, le=2**63 - 1)] = 0
+    seed: Annotated[Integer, Field(ge=0, le=MAX_SEED)] = 0
     site: Site | None = None
     seabed: Seabed
     objects: Annotated[list[ObjectTable], Field(max_length=10_000)] = field(default_factory=list)
