@@ -2,8 +2,8 @@
 
 The values recon derives instead of asking for are named where they are used, each with its source: the target
 envelope (:mod:`recon.target_envelope`), the sonar's geometry (:class:`recon.sonar_geometry.SonarGeometry`), the
-seabed sampling (:mod:`recon.seabed_memory`), the onset fit (:mod:`recon.onset_stage`) and the seabed band
-search (:data:`recon.seabed_band.SEABED_BAND`).
+seabed sampling (:mod:`recon.seabed_memory`), the onset fit (:mod:`recon.onset_stage`), the seabed band
+search (:data:`recon.seabed_band.SEABED_BAND`) and the texture grid (:data:`recon.seabed_texture.SEABED_TEXTURE`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ from recon.cluster import ClusterConfig
 from recon.far_side import FarSideConfig
 from recon.highlight import HighlightConfig
 from recon.seabed import SeabedConfig
-from recon.seabed_texture import TextureConfig
 
 
 @dataclass(frozen=True)
@@ -28,4 +27,3 @@ class ReconConfig:
     front_slope_length: float = 1.0  # m: how far behind a point its object's top is sought
     front_slope_width: float = 0.25  # m: across the look direction
     far_side: FarSideConfig = field(default_factory=FarSideConfig)  # with front_slope: centroid (recon.far_side)
-    texture: TextureConfig = field(default_factory=TextureConfig)  # the seabed at the scale of its texture

@@ -37,7 +37,7 @@ from recon.seabed import SeabedModel
 from recon.seabed_band import SEABED_BAND
 from recon.seabed_evidence import add_seabed_returns, initial_dvl_points, pull_dvl_points
 from recon.seabed_memory import SeabedMemory
-from recon.seabed_texture import TexturedSeabed
+from recon.seabed_texture import SEABED_TEXTURE, TexturedSeabed
 from recon.sonar_geometry import SonarGeometry
 
 __all__ = ["PoseSource", "ReconConfig", "Reconstructor"]
@@ -64,7 +64,7 @@ class Reconstructor:
         self.poses = poses
         self.config = config or ReconConfig()
         self.dvl_max_pitch = dvl_max_pitch
-        self.memory = SeabedMemory(self.config.seabed, self.config.texture)  # seabed samples (recon.seabed_memory)
+        self.memory = SeabedMemory(self.config.seabed, SEABED_TEXTURE)  # seabed samples (recon.seabed_memory)
         self._onsets = OnsetStage(geometry, self.config, self.memory)
         self._objects = ObjectStage(self.config, self.memory, geometry.spread)
         self.frames = 0
@@ -109,7 +109,7 @@ class Reconstructor:
         self.last_returns = (fi, bi, ri)
         pts = np.asarray(project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype), dtype=np.float64)  # 3. points
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if cfg.front_slope else np.zeros((fi.size, 0))
-        add_seabed_returns(self.memory, g, SEABED_BAND, hc.margin_m, cfg.texture.enabled, self.frames, onsets,
+        add_seabed_returns(self.memory, g, SEABED_BAND, hc.margin_m, SEABED_TEXTURE.enabled, self.frames, onsets,
                            (fi, bi, ri), pos, rot)  # 4. seabed
         self.memory.add_highlights(pts)
         self._objects.add(pts, ts[fi], arcs)  # 5. clusters, at the next poll

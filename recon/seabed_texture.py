@@ -67,6 +67,10 @@ class TextureConfig:
     max_cells: int = 400_000  # a box larger than this many cells is fitted at a coarser cell
 
 
+#: the texture grid recon runs with (fixed: each value's source is its comment above)
+SEABED_TEXTURE = TextureConfig()
+
+
 def _key(ij: NDArray[np.int64]) -> NDArray[np.int64]:
     return (ij[:, 0] << 32) + (ij[:, 1] & 0xFFFFFFFF)
 

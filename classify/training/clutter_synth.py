@@ -50,6 +50,7 @@ from recon.front_slope import replace_on_arcs
 from recon.poll_seabed import object_points, on_seabed
 from recon.reconstructor import ReconConfig
 from recon.seabed_memory import SeabedMemory
+from recon.seabed_texture import SEABED_TEXTURE
 
 F64 = npt.NDArray[np.float64]
 MAX_PATCHES_PER_CLOUD = 20  # patches drawn per clutter cloud asked before giving up
@@ -79,7 +80,7 @@ def recon_clusters(lines: list[LineReturns], cfg: ReconConfig, poll_frames: int
                    ) -> list[tuple[DetectedObject, float]]:
     """Recon's seabed removal poll by poll, then clusters per line and over all lines (see the module doc):
     each with its seabed depth, after :func:`recon.poll_seabed.on_seabed`."""
-    memory = SeabedMemory(cfg.seabed, cfg.texture)  # what recon keeps of the seabed (recon.seabed_memory)
+    memory = SeabedMemory(cfg.seabed, SEABED_TEXTURE)  # what recon keeps of the seabed (recon.seabed_memory)
     kept: list[tuple[F64, F64, F64, int]] = []
     for j, ln in enumerate(lines):
         for s in range(0, len(ln.dvl), poll_frames):
