@@ -30,23 +30,23 @@ from __future__ import annotations
 
 import math
 import time
-from collections import deque
-from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 from auvlink.geodesy import Datum
+from auvlink.pipeline.detection_store import DetectionStore
 from auvlink.pipeline.engine_config import EngineConfig, default_recon_config
+from auvlink.pipeline.engine_hooks import EngineHooks
+from auvlink.pipeline.event_queue import EventQueue
 from auvlink.pipeline.frame_gate import survey_frames
 from auvlink.pipeline.georef import Georef
 from auvlink.pipeline.latency import StageTimes
-from auvlink.pipeline.nav_inputs import Event, NavAdaptor, SonarPayload
+from auvlink.pipeline.nav_inputs import Event, SonarPayload
 from auvlink.pipeline.object_labels import ObjectLabeller, make_detection
 from auvlink.pipeline.results import Detection, Poses, StripFrame
 from auvlink.pipeline.setup import MissionSetup, nav_config, sonar_geometry
+from auvlink.pipeline.strip_picker import StripPicker
 from auvlink.records import Sample
 from classify.labels import CLUTTER
 from recon.cluster import DetectedObject, dbscan_labels
@@ -55,50 +55,53 @@ from recon.nav_stream import CausalNavigator
 from recon.reconstructor import ReconConfig, Reconstructor
 from recon.sonar_geometry import SonarGeometry
 
-#: s: the strip frame of an object is the one this long after its first highlight return: at the survey speed
-#: (1.5 m/s) the vehicle has closed 1.2 m, so the object lies inside the range window, not on its far edge
-STRIP_AFTER_FIRST_S = 0.8
-
-#: ``on_frames(geometry, times, images, returns)``: frames just reconstructed (mission times s, (F, bins,
-#: beams) uint8) and their highlight returns ((frame, beam, row) arrays, :attr:`Reconstructor.last_returns`)
-FramesObserver = Callable[[SonarGeometry, npt.NDArray[np.float64], npt.NDArray[np.uint8],
-                           tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]], None]
-
 
 class Engine:
-    """See the module docstring. ``clock`` (ns, the drivers' clock) enables end-to-end frame latency."""
+    """See the module docstring. Its parts: the input (:class:`~auvlink.pipeline.event_queue.EventQueue`), the
+    causal navigator and the georeference, recon (:class:`recon.reconstructor.Reconstructor`, made at the first
+    usable frame), the classifier (:class:`~auvlink.pipeline.object_labels.ObjectLabeller`; default: the shipped
+    model), the detections (:class:`~auvlink.pipeline.detection_store.DetectionStore`) and the report's frames
+    (:class:`~auvlink.pipeline.strip_picker.StripPicker`)."""
 
     def __init__(self, setup: MissionSetup, config: EngineConfig | None = None, *, t0_ns: int | None = None,
-                 recon_config: ReconConfig | None = None, classify: bool = True, model: Path | None = None,
-                 on_detection: Callable[[Detection], None] | None = None,
-                 clock: Callable[[], int] | None = None, strip_frames: int = 6, ring_frames: int = 200,
-                 on_frames: FramesObserver | None = None, clutter_threshold: float | None = None) -> None:
+                 recon_config: ReconConfig | None = None, labeller: ObjectLabeller | None = None,
+                 hooks: EngineHooks | None = None, strip: StripPicker | None = None) -> None:
         self.setup = setup
         self.config = config or EngineConfig()
-        self.t0_ns = t0_ns
         self.recon_config = recon_config or default_recon_config()
+        self.inbox = EventQueue(t0_ns)
         self.nav = CausalNavigator(nav_config(setup), self.config.max_extrapolation_s)
-        self.adaptor = NavAdaptor()
         gm = setup.gnss_mounting
         self.georef = Georef(Datum.of_site(setup.site), gm.xyz if gm is not None else (0.0, 0.0, 0.0), gm is not None)
-        self._applied: dict[int, np.ndarray] = {}  # detection id -> the D -> W shift it was handed on with
+        self.store = DetectionStore(self.georef)
+        self.labeller = labeller or ObjectLabeller(True, None)
+        self.hooks = hooks or EngineHooks()
+        self.strip_picker = strip or StripPicker()
         self.times = StageTimes()
-        self.detections: list[Detection] = []
-        self.strip: list[StripFrame] = []
         self.counts = {"frames": 0, "frames_processed": 0, "frames_without_navigation": 0, "polls": 0}
         self.rec: Reconstructor | None = None
         self.geometry: SonarGeometry | None = None
-        self.labeller = ObjectLabeller(classify, model, clutter_threshold)
-        self._on_detection, self._clock = on_detection, clock
-        self._on_frames = on_frames
-        self._buf: list[Event] = []
-        self._det_index: dict[int, int] = {}  # detection id -> its place in self.detections
         self._frames: list[tuple[int, SonarPayload]] = []
-        self._ring: deque[tuple[float, npt.NDArray[np.uint8]]] = deque(maxlen=ring_frames)
-        self._strip_max = strip_frames
         self._poll_k = -1
         self._t_last = -math.inf
         self._finished = False
+
+    @property
+    def t0_ns(self) -> int | None:
+        """ns since the epoch of mission time 0 (the first event's receive time unless the run gave it)."""
+        return self.inbox.t0_ns
+
+    @t0_ns.setter
+    def t0_ns(self, value: int | None) -> None:
+        self.inbox.t0_ns = value
+
+    @property
+    def detections(self) -> list[Detection]:
+        return self.store.detections
+
+    @property
+    def strip(self) -> list[StripFrame]:
+        return self.strip_picker.frames
 
     # ------------------------------------------------------------------ input
     def load_classifier(self) -> None:
@@ -119,35 +122,21 @@ class Engine:
         dbscan_labels(np.random.default_rng(0).normal(size=(64, 3)), 0.5, 8)
 
     def feed(self, sample: Sample) -> None:
-        ev = self.adaptor.route(sample)
-        if ev is not None:
-            if self.t0_ns is None:
-                self.t0_ns = ev.t_ns
-            self._buf.append(ev)
-
-    def _t(self, t_ns: int) -> float:
-        return (t_ns - (self.t0_ns or 0)) * 1e-9
+        """Buffer a decoded sample (:meth:`EventQueue.put`)."""
+        self.inbox.put(sample)
 
     def advance(self, watermark_ns: int | None = None) -> int:
         """Process every buffered event older than ``watermark_ns`` (all with None); returns frames done."""
-        if not self._buf:
+        if not self.inbox:
             return self._run_frames(final=watermark_ns is None)
-        if watermark_ns is None:
-            out, self._buf = self._buf, []
-        else:
-            out = [e for e in self._buf if e.t_ns < watermark_ns]
-            if len(out) != len(self._buf):
-                self._buf = [e for e in self._buf if e.t_ns >= watermark_ns]
-            else:
-                self._buf = []
-        out.sort(key=lambda e: (e.t_ns, e.seq))
+        out = self.inbox.release(watermark_ns)
         self._navigate(out)
         self._frames.extend((e.t_ns, e.payload) for e in out if e.kind == "sonar")
         return self._run_frames(final=watermark_ns is None)
 
     def _navigate(self, events: list[Event]) -> None:
         t0 = time.perf_counter()
-        d, g, p = self.adaptor.nav_inputs(events, self.t0_ns or 0)
+        d, g, p = self.inbox.adaptor.nav_inputs(events, self.t0_ns or 0)
         gnss = [e for e in events if e.kind == "gnss"]
         if d is None and g is None and p is None and not gnss:
             return
@@ -158,7 +147,7 @@ class Engine:
             self.georef.on_depth(np.asarray(p.t), pressure_to_depth(p.pressure_pa, c.seawater_density, c.gravity,
                                                                     c.atmospheric_pa))
         for e in gnss:
-            self.georef.on_fix(self._t(e.t_ns), e.payload, self.nav)
+            self.georef.on_fix(self.inbox.seconds(e.t_ns), e.payload, self.nav)
         self.times.add("navigation", time.perf_counter() - t0)
 
     # ------------------------------------------------------------------ frames
@@ -171,21 +160,19 @@ class Engine:
         return done
 
     def _group(self, group: list[tuple[int, SonarPayload]]) -> int:
+        """One group of frames: gated (:func:`~auvlink.pipeline.frame_gate.survey_frames`), reconstructed, then
+        a poll when ``poll_s`` of mission time has passed; returns the frames reconstructed."""
         t_start = time.perf_counter()
         self.counts["frames"] += len(group)
-        times = np.array([self._t(t) for t, _ in group])
+        times = np.array([self.inbox.seconds(t) for t, _ in group])
         ok = survey_frames(self.nav, times, self.config, self.counts)
         for (_, fr), t in zip(group, times, strict=True):
-            self._ring.append((float(t), fr.image))
+            self.strip_picker.remember(float(t), fr.image)
         if not ok.any():
             return 0
         sel = np.flatnonzero(ok)
-        if self.rec is None:
-            first = group[int(sel[0])][1]
-            self.geometry = sonar_geometry(self.setup, first.azimuths, first.window)
-            self.rec = Reconstructor(self.geometry, self.nav, self.recon_config,
-                                     dvl_max_pitch=np.radians(self.config.max_pitch_deg))
-        g = self.rec.geometry
+        rec = self._reconstructor(group[int(sel[0])][1])
+        g = rec.geometry
         imgs = [group[i][1].image for i in sel]
         good = [k for k, im in enumerate(imgs) if im.shape == (g.n_bins, g.n_beams) and im.dtype == np.uint8]
         self.counts["frames_bad_shape"] = self.counts.get("frames_bad_shape", 0) + len(imgs) - len(good)
@@ -193,34 +180,48 @@ class Engine:
             return 0
         sel, ts = sel[good], times[sel[good]]
         stack = np.stack([imgs[k] for k in good])
-        self.rec.add_frames(ts, stack)
-        if self._on_frames is not None:
-            self._on_frames(g, ts, stack, self.rec.last_returns)
+        rec.add_frames(ts, stack)
+        if self.hooks.on_frames is not None:
+            self.hooks.on_frames(g, ts, stack, rec.last_returns)
         dt = time.perf_counter() - t_start
         self.times.add("reconstruction", dt / sel.size, sel.size)
         self.counts["frames_processed"] += int(sel.size)
         self._t_last = max(self._t_last, float(ts.max()))
-        if self._clock is not None:
-            now = self._clock()
+        if self.hooks.clock is not None:
+            now = self.hooks.clock()
             for i in sel:
                 self.times.add("frame_end_to_end", (now - group[int(i)][0]) * 1e-9)
-        k = math.floor(self._t_last / self.config.poll_s)
-        if k > self._poll_k:
-            self._poll_k = k
-            t0 = time.perf_counter()
-            pos, _ = self.nav.pose_at(self._t_last)
-            objs = self.rec.poll(pos[0], self._t_last)
-            self.counts["polls"] += 1
-            self.times.add("clustering", time.perf_counter() - t0)
-            self._emit(objs)
+        self._poll_when_due(rec)
         return int(sel.size)
+
+    def _reconstructor(self, first: SonarPayload) -> Reconstructor:
+        """Recon, made with the sonar geometry of the first usable frame ``first``."""
+        if self.rec is None:
+            self.geometry = sonar_geometry(self.setup, first.azimuths, first.window)
+            self.rec = Reconstructor(self.geometry, self.nav, self.recon_config,
+                                     dvl_max_pitch=np.radians(self.config.max_pitch_deg))
+        return self.rec
+
+    def _poll_when_due(self, rec: Reconstructor) -> None:
+        """Finalize and emit the objects the vehicle is past, once per ``poll_s`` of mission time."""
+        k = math.floor(self._t_last / self.config.poll_s)
+        if k <= self._poll_k:
+            return
+        self._poll_k = k
+        t0 = time.perf_counter()
+        pos, _ = self.nav.pose_at(self._t_last)
+        objs = rec.poll(pos[0], self._t_last)
+        self.counts["polls"] += 1
+        self.times.add("clustering", time.perf_counter() - t0)
+        self._emit(objs)
 
     # ------------------------------------------------------------------ objects
     def _emit(self, objects: list[DetectedObject]) -> None:
+        """Classify ``objects``; report those that are not clutter, located in W (:class:`DetectionStore`)."""
         if not objects:
             return
         t0 = time.perf_counter()
-        labels = self.labeller.label(objects, self._det_index)
+        labels = self.labeller.label(objects, self.store.reported)
         if self.labeller.enabled:
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
@@ -229,36 +230,11 @@ class Engine:
                 continue
             shift = self.georef.shift(0.5 * (float(o.t_first) + float(o.t_last)), corrected=False)[0]
             det = make_detection(o, c, s, shift, epoch)
-            self._locate(det, shift)
-            k = self._det_index.get(det.id)
-            if k is None:  # a new object
-                self._det_index[det.id] = len(self.detections)
-                self.detections.append(det)
-            else:  # a later pass fused into it (recon.fusion): the update replaces it, same id
-                self.detections[k] = det
+            if not self.store.put(det, shift):
                 self.counts["updates"] = self.counts.get("updates", 0) + 1
-            self._pick_strip(float(o.t_first))
-            if self._on_detection is not None:
-                self._on_detection(det)
-
-    def _locate(self, det: Detection, shift: np.ndarray, correction: np.ndarray | None = None) -> None:
-        self._applied[det.id] = shift
-        self.georef.locate(det, correction)
-
-    def _georeference_final(self) -> None:
-        """End of the mission: every detection to the corrected track (closure error distributed)."""
-        self.georef.finalize(self.detections, self._applied, (self.t0_ns or 0) * 1e-9)
-
-    def _pick_strip(self, t_first: float) -> None:
-        if len(self.strip) >= self._strip_max or not self._ring:
-            return
-        ts = np.array([t for t, _ in self._ring])
-        i = int(np.argmin(np.abs(ts - (t_first + STRIP_AFTER_FIRST_S))))
-        t, img = self._ring[i]
-        if not self.nav.covered(t)[0] or any(s.t == t for s in self.strip):
-            return
-        pos, rot = self.nav.pose_at(t)
-        self.strip.append(StripFrame(t, img, pos, rot, self.nav.altitude_at(t)))
+            self.strip_picker.pick(float(o.t_first), self.nav)
+            if self.hooks.on_detection is not None:
+                self.hooks.on_detection(det)
 
     def finish(self) -> list[Detection]:
         """End of the mission: process what is buffered, then every remaining object is final."""
@@ -271,7 +247,7 @@ class Engine:
             objs = self.rec.finish()
             self.times.add("clustering", time.perf_counter() - t0)
             self._emit(objs)
-        self._georeference_final()
+        self.store.finalize((self.t0_ns or 0) * 1e-9)
         return self.detections
 
     # ------------------------------------------------------------------ reporting

@@ -28,6 +28,7 @@ from auvlink.config import VehicleConfig
 from auvlink.errors import AuvlinkError
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.nav_inputs import NAV_FORMATS, SONAR_FORMATS
+from auvlink.pipeline.object_labels import ObjectLabeller
 from auvlink.pipeline.process import ADVANCE_NS, FRAME_BLOCK, dropped_live, print_warnings, read_setup
 from auvlink.pipeline.results import Poses
 from logs_format import MissionLogReader, Replay
@@ -61,7 +62,7 @@ def navigation_solution(log: Path, *, rate_hz: float = 10.0, config: VehicleConf
         first_sonar = next((m.log_time_ns for m in reader.messages(channels=sonar)), None) if sonar else None
     print_warnings(log, warnings)
     cfg = live_cfg or EngineConfig(frame_block=FRAME_BLOCK)
-    engine = Engine(setup, cfg, t0_ns=t0_ns, classify=False)
+    engine = Engine(setup, cfg, t0_ns=t0_ns, labeller=ObjectLabeller(False, None))
     index: dict[str, int] = {}
     last_adv: int | None = None
     with Replay(log, channels=nav) as replay:

@@ -18,9 +18,11 @@ from typing import Any
 
 from auvlink.config import VehicleConfig
 from auvlink.pipeline.engine import Engine, EngineConfig
+from auvlink.pipeline.engine_hooks import EngineHooks
 from auvlink.pipeline.fan_frames import FanRecorder
 from auvlink.pipeline.log_meta import live_settings
 from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
+from auvlink.pipeline.object_labels import ObjectLabeller
 from auvlink.pipeline.results import Detection, FanFrame, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.progress import progress_bar
@@ -74,8 +76,9 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     print_warnings(log, warnings)
     cfg = engine_config or live_cfg or EngineConfig(frame_block=FRAME_BLOCK)
     fans = FanRecorder()
-    engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config, classify=classify, model=model,
-                    on_detection=on_detection, on_frames=fans, clutter_threshold=clutter_threshold)
+    engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config,
+                    labeller=ObjectLabeller(classify, model, clutter_threshold),
+                    hooks=EngineHooks(on_detection=on_detection, on_frames=fans))
     t_warm = time.perf_counter()
     engine.warm_up()
     warm_s = time.perf_counter() - t_warm
