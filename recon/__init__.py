@@ -9,11 +9,13 @@ Recon against the simulator's ground truth is evaluation, in the application lay
   :mod:`recon.nav_stream` with :mod:`recon.nav_stream_lib` (causal dead reckoning), :mod:`recon.nav_anchor`
   (GNSS anchoring), :mod:`recon.trajectory` (pose interpolation);
 - the sonar and its targets: :mod:`recon.sonar_geometry` (beams, bins, rays, seabed onset),
-  :mod:`recon.range_arcs` (a return's range arc), :mod:`recon.target_envelope` (the smallest and largest object
+  :mod:`recon.beam_edge` (the fan's effective lower edge, estimated from the data), :mod:`recon.range_arcs`
+  (a return's range arc), :mod:`recon.target_envelope` (the smallest and largest object
   and the limits derived from them);
 - the reconstruction: :mod:`recon.reconstructor` (:class:`Reconstructor`, the stages in order) with
   :mod:`recon.recon_config` (:class:`ReconConfig`); stage 1 :mod:`recon.onset_stage` (with
-  :mod:`recon.seabed_band`: the seabed return of each column); stages 2-3 :mod:`recon.highlight` (returns, points);
+  :mod:`recon.seabed_band`: the seabed return of each column); stages 2-3 :mod:`recon.highlight` (returns, points;
+  :mod:`recon.water_threshold`: the background before the onset);
   stage 4 :mod:`recon.seabed_evidence` into :mod:`recon.seabed_memory` (with :mod:`recon.seabed`: tiled planes,
   :mod:`recon.seabed_texture`: the texture grid); stage 5 :mod:`recon.object_stage` (with :mod:`recon.poll_seabed`:
   seabed removal and clutter, :mod:`recon.cluster`, :mod:`recon.cluster_stream`, :mod:`recon.cluster_index`,

@@ -129,6 +129,16 @@ def frame_thresholds(images: NDArray[np.uint8], stat_rows: int, cfg: HighlightCo
     return np.maximum(thr, float(cfg.min_level))
 
 
+def row_thresholds(images: NDArray[np.uint8], thr: F64, k: float) -> F64:
+    """(F, bins) thresholds: per frame and range row, at least the frame's ``thr`` (F,) and at least the row's
+    own background across the fan, median + ``k`` * 1.4826 * MAD over the beams (MAD floored at one grey level):
+    a return stands out of what the fan sees at its range, whatever gain, TVG and vertical pattern made the
+    seabed's ramp, an interference band or a sidelobe arc that spans the fan."""
+    med = np.median(images, axis=2)
+    mad = np.maximum(np.median(np.abs(images - med[:, :, None]), axis=2), 1.0)
+    return np.maximum(np.asarray(thr, np.float64)[:, None], med + k * MAD_SCALE * mad)
+
+
 def onset_rows(geometry: SonarGeometry, onset: F64, margin_m: float) -> I64:
     """Row limits (exclusive) per frame and beam: rows whose range is < onset - margin."""
     lim = np.ceil(geometry.range_to_row(onset - margin_m))
@@ -150,7 +160,8 @@ def _column_max(x: NDArray[np.uint8]) -> NDArray[np.uint8]:
 
 def first_returns(images: NDArray[np.uint8], limits: I64, thr: F64, cfg: HighlightConfig, span: int | None = None
                   ) -> tuple[I64, I64, I64]:
-    """(frame, beam, row) of the first return (see the module doc) in rows < ``limits`` (F, beams).
+    """(frame, beam, row) of the first return (see the module doc) in rows < ``limits`` (F, beams); ``thr`` per
+    frame (F,) or per frame and row (F, bins) (:func:`row_thresholds`).
 
     ``span``: the bins of ``cfg.run_span_m`` (:func:`run_span_bins`); None: ``cfg.min_run`` (consecutive bins).
     With ``cfg.skip`` only the rows before the latest onset (+ the span) are read, and only the columns (frame,
@@ -163,6 +174,7 @@ def first_returns(images: NDArray[np.uint8], limits: I64, thr: F64, cfg: Highlig
     span = run if span is None else max(run, int(span))
     n_valid = n_bins - run + 1  # rows where a return may start (``run`` bins must fit in the image)
     thr_u = np.clip(np.floor(thr), 0, 255).astype(np.uint8)  # x > thr <=> x > floor(thr) for integers
+    thr_u = thr_u[:, :, None] if thr_u.ndim == 2 else thr_u[:, None, None]  # per row (F, bins) or per frame (F,)
     empty: tuple[I64, I64, I64] = (np.zeros(0, np.int64),) * 3
     if f == 0 or n_valid <= 0:
         return empty
@@ -170,7 +182,8 @@ def first_returns(images: NDArray[np.uint8], limits: I64, thr: F64, cfg: Highlig
         n_valid = min(int(limits.max(initial=0)), n_valid)
         if n_valid <= 0:
             return empty
-        above = images[:, : min(n_bins, n_valid + span - 1)] > thr_u[:, None, None]
+        rows = min(n_bins, n_valid + span - 1)
+        above = images[:, :rows] > thr_u[:, :rows]
         start = _starts(above, n_valid, run, span)  # ours (a view of ``above`` at most): cleared below
         lo = int(limits.min(initial=n_valid))
         if lo < n_valid:  # rows at or past a beam's own onset row cannot start a return
@@ -179,7 +192,7 @@ def first_returns(images: NDArray[np.uint8], limits: I64, thr: F64, cfg: Highlig
         lf, lb = np.nonzero(_column_max(start.view(np.uint8)))
         first = np.argmax(start[lf, :, lb], axis=1)  # (live columns, rows)
         return lf.astype(np.int64), lb.astype(np.int64), first.astype(np.int64)
-    mask = _starts(images > thr_u[:, None, None], n_valid, run, span)
+    mask = _starts(images > thr_u, n_valid, run, span)
     rows = np.arange(n_valid)
     mask = mask & (rows[None, :, None] < limits[:, None, :])
     first = np.argmax(mask, axis=1)  # (F, beams)

@@ -1,0 +1,85 @@
+"""Per range row, the grey level that the background before the seabed onset rarely exceeds (a constant false
+alarm rate threshold, measured on the frames themselves).
+
+What a column holds before its seabed onset is background: receiver noise, which grows along range with the
+time-varied gain, and the seabed's faint returns through the beam's pattern beyond its edge, all under the
+survey's gain and the display's floor (often most pixels at 0). None of that is known in advance, so the
+threshold is measured per batch of frames, per range row, from the pixels before each column's onset pooled
+over the batch's frames and beams and over :data:`POOL_ROWS` neighbouring rows (a 256-level histogram per row).
+
+The quantile sought (a false alarm once in ``1 / PFA`` pixels) cannot be read directly: an object before the
+onset fills up to a few in a thousand of those pixels. It is extrapolated from the bulk instead: ``q99 + 2 (q99 -
+q90)``, two more decades of exceedance at the decade step between the 90 % and the 99 % quantiles. That is
+exact for a background with an exponential upper tail in grey levels and conservative (too high) for speckle
+and noise, whose power is gamma-distributed (the log of it has a thinner, double-exponential tail). Rows with
+fewer than :data:`MIN_SAMPLES` background pixels take the nearest nearer row's threshold (the background grows
+along range, so that row's is the lower bound).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+
+#: rows pooled around each row (+-8: 0.33 m of a 10 m / 512-bin window, within which TVG and pattern barely change)
+POOL_ROWS = 17
+#: background pixels a row's quantiles need (the 99 % quantile from at least 10 pixels above it)
+MIN_SAMPLES = 1000
+#: the quantiles behind the extrapolation (module docstring): the bulk, clear of the few per cent of objects
+Q_LOW, Q_HIGH = 0.75, 0.95
+#: false alarms per background pixel: with ~300 rows x 96 beams before the onset, ~3 pixels a frame, and the return
+#: rule's second bin (recon.highlight) leaves ~0.1 a frame
+PFA = 1e-4
+#: frames the background histogram remembers (time constant): 10 s at 10 frames/s, a pass over an object is 1-3 s
+WINDOW_FRAMES = 100
+
+
+def _quantile_rows(cum: NDArray[np.float64], q: float) -> F64:
+    """Per row, the lowest grey level whose cumulative count reaches ``q`` of the row's total."""
+    total = cum[:, -1:]
+    return np.asarray(np.argmax(cum >= q * total, axis=1), dtype=np.float64)
+
+
+def water_histogram(images: NDArray[np.uint8], limits: I64) -> F64:
+    """(bins, 256) counts of the grey levels of a batch (F, bins, beams) in rows < ``limits`` (F, beams)."""
+    n_bins = images.shape[1]
+    rows = np.arange(n_bins)[None, :, None]
+    keys = (rows * 256 + images.astype(np.int64))[rows < limits[:, None, :]]
+    return np.bincount(keys, minlength=n_bins * 256).reshape(n_bins, 256).astype(np.float64)
+
+
+def histogram_thresholds(hist: F64) -> F64:
+    """(bins,) thresholds (grey levels) from per-row histograms (bins, 256) (module docstring); NaN everywhere when
+    no row has enough pixels."""
+    n_bins = hist.shape[0]
+    half = POOL_ROWS // 2
+    c = np.cumsum(np.pad(hist, ((half + 1, half), (0, 0))), axis=0)
+    pooled = c[POOL_ROWS:] - c[:-POOL_ROWS]  # (bins, 256): rows within +-half
+    cum = np.cumsum(pooled, axis=1)
+    q_lo, q_hi = _quantile_rows(cum, Q_LOW), _quantile_rows(cum, Q_HIGH)
+    slope = np.maximum(q_hi - q_lo, 1.0) / np.log((1.0 - Q_LOW) / (1.0 - Q_HIGH))  # >= 1 grey level (quantization)
+    thr = q_hi + slope * np.log((1.0 - Q_HIGH) / PFA)
+    ok = cum[:, -1] >= MIN_SAMPLES
+    if not ok.any():
+        return np.full(n_bins, np.nan)
+    last = np.maximum.accumulate(np.where(ok, np.arange(n_bins), -1))  # nearest nearer row with enough pixels
+    first = int(np.argmax(ok))
+    last = np.where(last < 0, first, last)
+    return np.asarray(thr[last], dtype=np.float64)
+
+
+class WaterThreshold:
+    """The background histogram of the last frames (forgetting over :data:`WINDOW_FRAMES`) and its thresholds."""
+
+    def __init__(self, n_bins: int, window: float = WINDOW_FRAMES) -> None:
+        self.hist = np.zeros((n_bins, 256))
+        self.window = float(window)
+
+    def update(self, images: NDArray[np.uint8], limits: I64) -> F64:
+        """Add a batch (F, bins, beams) with its onset rows ``limits`` (F, beams); the (bins,) thresholds."""
+        self.hist *= np.exp(-images.shape[0] / self.window)
+        self.hist += water_histogram(images, limits)
+        return histogram_thresholds(self.hist)

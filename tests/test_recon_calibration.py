@@ -1,0 +1,96 @@
+"""Recon calibrating itself from the frames: the fan's effective lower edge (recon.beam_edge) and the background
+thresholds (recon.water_threshold, recon.highlight.row_thresholds)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from recon.beam_edge import MIN_FRAMES, BeamEdge, frame_edges
+from recon.highlight import row_thresholds
+from recon.sonar_geometry import SonarGeometry
+from recon.water_threshold import PFA, WaterThreshold, histogram_thresholds, water_histogram
+
+
+def _seabed_frames(geometry: SonarGeometry, alt: float, pitch_deg: float, n: int, rng: np.random.Generator,
+                   gain: float = 0.0) -> tuple[np.ndarray, np.ndarray, Rotation, np.ndarray]:
+    """Frames of a level seabed ``alt`` m under the vehicle that shows from the edge of ``geometry``'s fan on
+    (water ~ 10 grey levels, seabed ~ 110, both + ``gain``), with their poses and altitudes."""
+    pos = np.zeros((n, 3))
+    rot = Rotation.from_euler("ZYX", np.tile([0.0, np.radians(pitch_deg), 0.0], (n, 1)))
+    alts = np.full(n, alt)
+    onset = geometry.flat_onset_ranges(pos, rot, alts)  # (n, beams)
+    seabed = geometry.ranges[None, :, None] >= onset[:, None, :]
+    img = np.where(seabed, 110.0, 10.0) + gain + rng.normal(0.0, 6.0, (n, geometry.n_bins, geometry.n_beams))
+    return np.clip(img, 0, 255).astype(np.uint8), pos, rot, alts
+
+
+@pytest.mark.parametrize(("half_deg", "alt", "pitch_deg", "gain"), [(7.0, 5.0, 0.0, 0.0), (12.0, 4.0, 3.0, 40.0),
+                                                                     (16.0, 6.0, -2.0, -5.0)])
+def test_frame_edges_recover_the_edge_the_seabed_shows(half_deg: float, alt: float, pitch_deg: float,
+                                                       gain: float) -> None:
+    nominal = SonarGeometry.from_degrees(30.0, 14.0)
+    truth = replace(nominal, spread=np.radians(2.0 * half_deg))
+    imgs, pos, rot, alts = _seabed_frames(truth, alt, pitch_deg, 5, np.random.default_rng(3), gain)
+    edges = np.degrees(frame_edges(imgs, nominal, pos, rot, alts))
+    # one range bin (0.02 m) at ~7 m moves the elevation by ~0.2 deg; the quarter-metre average is trailing
+    assert np.all(np.abs(edges - half_deg) < 0.5), edges
+
+
+def test_frame_edges_none_without_seabed_or_altitude() -> None:
+    g = SonarGeometry.from_degrees(30.0, 14.0)
+    rng = np.random.default_rng(4)
+    water = np.clip(rng.normal(10.0, 6.0, (2, g.n_bins, g.n_beams)), 0, 255).astype(np.uint8)
+    pos, rot = np.zeros((2, 3)), Rotation.identity(2)
+    assert np.isnan(frame_edges(water, g, pos, rot, np.array([5.0, 5.0]))).all()
+    imgs, pos, rot, _ = _seabed_frames(g, 5.0, 0.0, 2, rng)
+    assert np.isnan(frame_edges(imgs, g, pos, rot, np.array([np.nan, np.nan]))).all()
+
+
+def test_beam_edge_nominal_until_enough_frames_then_follows_the_data() -> None:
+    edge = BeamEdge(np.radians(7.0), window=20, min_frames=MIN_FRAMES)
+    tilt = np.radians(30.0)
+    assert edge.update(np.full(MIN_FRAMES - 1, np.radians(15.0)), tilt) == pytest.approx(np.radians(7.0))
+    assert edge.update(np.array([np.radians(15.0), np.nan]), tilt) == pytest.approx(np.radians(15.0))
+    # outliers (an object in the fan, a steep dive) are outvoted; a lasting change takes over within the window
+    edge.update(np.array([np.radians(40.0)] * 3), tilt)
+    assert edge.half == pytest.approx(np.radians(15.0))
+    edge.update(np.full(20, np.radians(11.0)), tilt)
+    assert edge.half == pytest.approx(np.radians(11.0))
+
+
+def test_water_threshold_holds_its_false_alarm_rate_with_objects_in_the_water() -> None:
+    rng = np.random.default_rng(5)
+    n, bins, beams = 50, 128, 96
+    # background with an exponential upper tail in grey levels (scale 8), floored at 0 like a display
+    imgs = np.clip(rng.exponential(8.0, (n, bins, beams)) + rng.normal(0, 1, (n, bins, beams)), 0, 255)
+    for k in range(n):  # an object passing through the water column: 20 beams of 3 rows, nearer each frame
+        imgs[k, 120 - 2 * k : 123 - 2 * k, 40:60] = 180.0
+    limits = np.full((n, beams), bins)
+    thr = histogram_thresholds(water_histogram(imgs.astype(np.uint8), limits))
+    exact = 8.0 * np.log(1.0 / PFA)  # the exponential's 1 - PFA quantile
+    assert np.all(thr > 0.9 * exact) and np.all(thr < 1.6 * exact) and np.all(thr < 180.0), (thr.min(), thr.max())
+
+
+def test_water_threshold_follows_the_gain_and_forgets_over_its_window() -> None:
+    rng = np.random.default_rng(6)
+    base = rng.normal(40.0, 8.0, (30, 64, 96))
+    limits = np.full((30, 96), 64)
+    lo = WaterThreshold(64, window=3).update(np.clip(base, 0, 255).astype(np.uint8), limits)
+    wt = WaterThreshold(64, window=3)
+    wt.update(np.clip(base, 0, 255).astype(np.uint8), limits)
+    hi = wt.update(np.clip(base + 30.0, 0, 255).astype(np.uint8), limits)  # gain up by 30 grey levels
+    assert np.median(hi - lo) == pytest.approx(30.0, abs=2.0)  # the first frames forgotten (e^-10)
+
+
+def test_row_thresholds_rise_over_a_band_across_the_fan() -> None:
+    rng = np.random.default_rng(7)
+    img = np.clip(rng.normal(20.0, 5.0, (1, 64, 96)), 0, 255)
+    img[0, 30:33] = 150.0  # interference: bright across the whole fan
+    img[0, 50, 40:44] = 150.0  # an object in four beams
+    thr = row_thresholds(img.astype(np.uint8), np.array([30.0]), 4.0)[0]
+    assert np.all(thr[30:33] > 150.0)
+    assert thr[50] < 150.0 and thr[10] == pytest.approx(30.0, abs=25.0)
