@@ -27,7 +27,7 @@ from typing import Any
 from _common import script_main, smoke, table, write_json
 
 from auvlink.evaluation.acoustic_draw import SPACES
-from auvlink.evaluation.score import BINS
+from auvlink.evaluation.survey_scores import BINS
 from auvlink.evaluation.surveys import run_surveys
 from auvlink.evaluation.tables import plot, text_table
 

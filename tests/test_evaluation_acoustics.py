@@ -120,7 +120,7 @@ def _record(index: int, space: str, correct: int) -> dict:
     dets = [{"class": "sphere", "position_ned": [10.0 * k, 0.0, 20.0], "size": [1.0, 1.0, 0.5]}
             for k in range(correct)]
     truth = [("sphere", 10.0 * k, 0.0) for k in range(2)]
-    from auvlink.evaluation.score import score_survey
+    from auvlink.evaluation.survey_scores import score_survey
 
     d = draw_survey(77, index, small=True)
     return {"index": index, "factors": d.factors(), "acoustic_factors": a.factors(), "acoustics": a.to_dict(),

@@ -12,7 +12,7 @@ import pytest
 from image_checks import assert_plot_drawn
 
 from auvlink.evaluation.draw import MIN_SEPARATION, SPACE, draw_survey, draw_surveys, onset_range
-from auvlink.evaluation.score import bin_label, by_class, interval95, pool, score_survey
+from auvlink.evaluation.survey_scores import bin_label, by_class, interval95, pool, score_survey
 from auvlink.sim.scene import CLASSES, loads_scene
 
 

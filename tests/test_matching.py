@@ -1,7 +1,8 @@
 """One matching of detections to the truth: a mission's ``summary.json`` scores
-(:func:`auvlink.pipeline.truth_scores.score_detections`) and a survey's (:func:`auvlink.evaluation.score.score_survey`)
-pair the same detections with the same true objects, ties included, as the documented rule says (nearest first;
-equal distances by detection index, then truth index; a non-finite position matches nothing)."""
+(:func:`auvlink.pipeline.truth_scores.score_detections`) and a survey's
+(:func:`auvlink.evaluation.survey_scores.score_survey`) pair the same detections with the same true objects, ties
+included, as the documented rule says (nearest first; equal distances by detection index, then truth index; a
+non-finite position matches nothing)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from auvlink.evaluation.score import score_survey
+from auvlink.evaluation.survey_scores import score_survey
 from auvlink.pipeline.log_meta import TruthObject
 from auvlink.pipeline.results import Detection, MissionResult
 from auvlink.pipeline.setup import MissionSetup

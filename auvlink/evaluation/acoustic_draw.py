@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from auvlink.evaluation.score import pool
+from auvlink.evaluation.survey_scores import pool
 from auvlink.sim.acoustics import PROFILES
 from auvlink.sim.sonar_geometry import N_BINS
 

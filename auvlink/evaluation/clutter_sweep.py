@@ -10,7 +10,7 @@ threshold, exactly the detections a run at that threshold reports, by the engine
 probability reaches the threshold makes its id clutter unless that id was reported before (an object once
 reported stays one; a later emission of a clutter id may report it). Recon does not depend on the classifier,
 so nothing else changes. :func:`sweep` scores every threshold of a grid over all surveys (pooled as
-:func:`auvlink.evaluation.score.pool`), and :func:`best_threshold` picks the one with the highest F1 at 1 m
+:func:`auvlink.evaluation.survey_scores.pool`), and :func:`best_threshold` picks the one with the highest F1 at 1 m
 (the middle one of a tie). :func:`write_calibrated` stores it in a copy of the checkpoint.
 """
 
@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from auvlink.evaluation.score import pool, score_survey
+from auvlink.evaluation.survey_scores import pool, score_survey
 
 if TYPE_CHECKING:
     from classify.checkpoint import Checkpoint

@@ -8,7 +8,7 @@ Each survey of the draw (:mod:`auvlink.evaluation.draw`), with its acoustic cond
 :func:`auvlink.pipeline.process.run_log` and written by :func:`auvlink.pipeline.outputs.write_outputs`
 (what ``auvlink replay`` runs: framers, codecs, the streaming engine, classification; the outputs go
 to ``DIR/surveys/NNN/out/``, the detections to ``out/detections.jsonl``) and scored against
-the scene's objects (:mod:`auvlink.evaluation.score`). The log is deleted after its replay unless
+the scene's objects (:mod:`auvlink.evaluation.survey_scores`). The log is deleted after its replay unless
 ``keep_logs`` (a 3-minute survey is ~150 MB); nothing is cached: every run simulates afresh.
 
 Surveys run in ``workers`` processes (spawned, one thread each); the results do not depend on the
@@ -39,7 +39,7 @@ from typing import Any
 from auvlink.evaluation.acoustic_draw import IDEAL, AcousticDraw, by_acoustic_factor, draw_acoustics
 from auvlink.evaluation.clutter_sweep import GRID, apply_rule, best_threshold, model_threshold, sweep, write_calibrated
 from auvlink.evaluation.draw import SurveyDraw, draw_surveys
-from auvlink.evaluation.score import by_class, by_factor, pool, score_survey
+from auvlink.evaluation.survey_scores import by_class, by_factor, pool, score_survey
 from auvlink.jsonutil import to_jsonable
 
 

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from auvlink.evaluation.score import BINS, KINDS, OBJECT_KINDS
+from auvlink.evaluation.survey_scores import BINS, KINDS, OBJECT_KINDS
 
 COLUMNS = ("surveys", "objects", "detections", "precision_1m", "recall_1m", "precision_2m", "recall_2m",
            "detections_per_object", *KINDS)

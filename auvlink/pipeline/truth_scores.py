@@ -2,7 +2,7 @@
 
 A detection matches the nearest unmatched true object whose horizontal distance is at most
 ``radius`` (m), greedily by distance (:func:`match`, the one matching of the project: ``summary.json`` and
-``auvlink eval --surveys``, :func:`auvlink.evaluation.score.score_survey`, both use it). Detection precision =
+``auvlink eval --surveys``, :func:`auvlink.evaluation.survey_scores.score_survey`, both use it). Detection precision =
 matched / detections, recall = matched / true objects; classification counts a match as correct when the classes
 agree.
 """
