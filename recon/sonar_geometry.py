@@ -38,6 +38,11 @@ from recon.frames import Mounting, attitude
 F64 = NDArray[np.float64]
 GeometryMode = Literal["exact", "paper"]
 UP_NED = np.array([0.0, 0.0, -1.0])
+#: the DIDSON 300 m's image (data sheet, detection mode): 96 beams over a 29 deg field of view, 512 range samples;
+#: tilt, vertical spread and range window come from the shared description, :data:`auvlink.sonar.DEFAULT_SONAR`
+DIDSON_BEAMS = 96
+DIDSON_BINS = 512
+DIDSON_FOV_DEG = 29.0
 
 
 def points_sonar(r: ArrayLike, theta: ArrayLike, phi: ArrayLike) -> F64:
@@ -51,13 +56,13 @@ def points_sonar(r: ArrayLike, theta: ArrayLike, phi: ArrayLike) -> F64:
 class SonarGeometry:
     """Image layout and mounting of the sonar; angles in radians, distances in metres."""
 
-    n_bins: int = 512
-    n_beams: int = 96
+    n_bins: int = DIDSON_BINS
+    n_beams: int = DIDSON_BEAMS
     window_start: float = DEFAULT_SONAR.window_start
     window_length: float = DEFAULT_SONAR.window_length
     tilt: float = DEFAULT_SONAR.tilt
     spread: float = DEFAULT_SONAR.spread
-    fov: float = float(np.deg2rad(29.0))
+    fov: float = float(np.deg2rad(DIDSON_FOV_DEG))
     lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
     azimuth_table: tuple[float, ...] | None = None
     #: roll, pitch, yaw (rad) of the sonar's mounting in B, applied before the tilt: R_BS = R(rpy) Ry(-tilt)
