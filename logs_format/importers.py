@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,11 @@ from auvlink.errors import AuvlinkError, EncodeError
 from auvlink.framing.can_frames import message_to_frame
 from logs_format.profile import LogError
 from logs_format.writer import MissionLogWriter
+
+#: synthetic frame rates of a raw capture: one frame in 1000 s (slowest logged instrument, with room) to 1 MHz
+#: (1 us apart, well inside ns times); beyond them frames share a time stamp or the times overflow int64 ns
+MIN_RATE_HZ = 1e-3
+MAX_RATE_HZ = 1e6
 
 #: suffixes python-can's LogReader understands (``.gz`` variants too)
 CAN_LOG_SUFFIXES = (".asc", ".blf", ".csv", ".db", ".log", ".trc", ".mf4")
@@ -93,8 +99,8 @@ def import_serial_capture(
 ) -> ImportResult:
     """A raw byte capture of one port -> a mission log (see the module docstring for times)."""
     wire = formats.get(fmt)
-    if rate_hz is not None and rate_hz <= 0:
-        raise LogError(f"rate must be positive, got {rate_hz}")
+    if rate_hz is not None and not (math.isfinite(rate_hz) and MIN_RATE_HZ <= rate_hz <= MAX_RATE_HZ):
+        raise LogError(f"--rate must be a number of Hz in [{MIN_RATE_HZ:g}, {MAX_RATE_HZ:g}], got {rate_hz}")
     src = Path(src)
     name = device or fmt
     framer = wire.framer()

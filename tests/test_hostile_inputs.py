@@ -212,3 +212,44 @@ def test_sim_seed_beyond_63_bits(tmp_path: Path, capsys: pytest.CaptureFixture[s
                       capsys)
     assert "seed" in line
     assert not (tmp_path / "o.mcap").exists()
+
+
+# -- log tools and decode: options and inputs that are not what they should be -------------------------------------
+@pytest.mark.parametrize("rate", ["nan", "inf", "1e-300", "1e300", "0", "-5"])
+def test_log_import_rate_in_range(rate: str, shared_data: Path, tmp_path: Path,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "o.mcap"
+    line = _cli_error(["log", "import", str(shared_data / "rdi" / "adcp_auv_3.pd0"), "--format", "pd0",
+                       "--rate", rate, "--out", str(out)], capsys)
+    assert "--rate" in line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(("argv", "says"), [
+    (["info", "{log}", "--gap-factor", "-1"], "--gap-factor"),
+    (["info", "{log}", "--gap-factor", "nan"], "--gap-factor"),
+    (["export", "{log}", "--out", "{tmp}/e", "--max-sonar", "-1"], "--max-sonar"),
+])
+def test_log_options_in_range(argv: list[str], says: str, small_mission_log: Path, tmp_path: Path,
+                              capsys: pytest.CaptureFixture[str]) -> None:
+    args = [a.format(log=small_mission_log, tmp=tmp_path) for a in argv]
+    assert says in _cli_error(["log", *args], capsys)
+    assert not (tmp_path / "e").exists()
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo"])
+@pytest.mark.parametrize("argv", [["decode", "-f", "nmea", "{p}"], ["log", "info", "{p}"],
+                                  ["log", "export", "{p}", "--out", "{tmp}/e"],
+                                  ["log", "import", "{p}", "--format", "nmea", "--out", "{tmp}/o.mcap"]])
+def test_an_input_that_is_not_a_regular_file(kind: str, argv: list[str], tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """A folder or a FIFO is refused at once (a FIFO nobody writes to blocked ``log info`` for ever)."""
+    import os
+
+    p = tmp_path / "input"
+    if kind == "folder":
+        p.mkdir()
+    else:
+        os.mkfifo(p)
+    line = _cli_error([a.format(p=p, tmp=tmp_path) for a in argv], capsys)
+    assert "not a regular file" in line

@@ -24,8 +24,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not args.file.is_file():
-        raise AuvlinkError(f"{args.file}: no such file")
+    if not args.file.is_file():  # a folder, or a FIFO or device that would block or never end
+        why = "not a regular file (a folder, FIFO or device)" if args.file.exists() else "no such file"
+        raise AuvlinkError(f"{args.file}: {why}; give a capture file")
     fmt = formats.get(args.format)
     out = sys.stdout
     n_records = 0

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -62,7 +63,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     imp.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
 
 
+def _check_input(path: str | Path, what: str) -> None:
+    """Refuse an input that is missing or not a regular file (a folder; a FIFO or device would block or never end)."""
+    p = Path(path)
+    if not p.is_file():
+        why = "not a regular file (a folder, FIFO or device)" if p.exists() else "no such file"
+        raise LogError(f"cannot open {what} {path}: {why}; give a "
+                       f"{'mission log (.mcap)' if what == 'log' else 'capture file'}")
+
+
 def _info(args: argparse.Namespace) -> int:
+    _check_input(args.log, "log")
+    if not (math.isfinite(args.gap_factor) and args.gap_factor > 1):
+        raise LogError(f"--gap-factor must be a number > 1 (a gap is longer than K median periods), "
+                       f"got {args.gap_factor}")
     info = log_info(args.log, decode=not args.no_decode, gap_factor=args.gap_factor)
     if args.json:
         print(json.dumps(to_jsonable(info), indent=2, allow_nan=False))
@@ -72,10 +86,11 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    if not Path(args.log).is_file():
-        raise LogError(f"no such log: {args.log}")
+    _check_input(args.log, "log")
     if args.every < 1:
         raise LogError(f"--every must be >= 1, got {args.every}")
+    if args.max_sonar is not None and args.max_sonar < 0:
+        raise LogError(f"--max-sonar must be >= 0 (0: no sonar frames), got {args.max_sonar}")
     # export writes <channel>.csv, navigation.csv and a folder per sonar channel (replaced whole)
     refuse_input_overwrite([args.log], folder=("--out", args.out),
                            writes=lambda rel: len(rel.parts) > 1 or rel.suffix in (".csv", ".png"))
@@ -111,8 +126,7 @@ def _export_into(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    if not Path(args.file).is_file():
-        raise LogError(f"no such file: {args.file}")
+    _check_input(args.file, "file")
     check_output_file(args.out, force=args.force, inputs=[args.file], what="log")
     if args.format is None:
         if not is_can_log(args.file):
