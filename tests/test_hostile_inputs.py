@@ -253,3 +253,27 @@ def test_an_input_that_is_not_a_regular_file(kind: str, argv: list[str], tmp_pat
         os.mkfifo(p)
     line = _cli_error([a.format(p=p, tmp=tmp_path) for a in argv], capsys)
     assert "not a regular file" in line
+
+
+@pytest.mark.parametrize(("old", "new", "key", "says"), [
+    ('mode = "scan"', 'mode = "nope"', "synthesis.mode", "paper"),
+    ('z_ref = "seabed"', 'z_ref = "seabd"', "synthesis.z_ref", "seabed"),
+    ('detect = "energy"', 'detect = "energyy"', "synthesis.detect", "energy"),
+    ("tilts_deg = [20.0, 28.3333, 36.6667, 45.0]", "tilts_deg = []", "synthesis.tilts_deg", "at least one"),
+    ("noise_fraction = [0.0, 0.1]", "noise_fraction = [-1.0, -2.0]", "synthesis.noise_fraction", "[0.0, 1.0]"),
+    ("noise_fraction = [0.0, 0.1]", "noise_fraction = [0.5, 0.1]", "synthesis.noise_fraction", "smaller value first"),
+    ("fused_passes = [2, 3]", "fused_passes = [0, 1000000]", "synthesis.fused_passes", "[1, 10]"),
+    ("clutter_lines = [2, 3]", "clutter_lines = [-1, 1000000]", "synthesis.clutter_lines", "[1, 100]"),
+    ("scale = [0.95, 1.05]", "scale = [0.0, 1e300]", "train.augment.scale", "(0.0, 10.0]"),
+    ("jitter_sigma = 0.01", "jitter_sigma = -1.0", "train.augment.jitter_sigma", "[0.0, 10.0]"),
+])
+def test_training_words_and_ranges_checked(old: str, new: str, key: str, says: str, tmp_path: Path) -> None:
+    """A misspelt word silently trained the other mode; a reversed or negative range was taken as written."""
+    from classify.training.config import load_train_settings
+
+    path = tmp_path / "t.toml"
+    assert "\n" + old in TRAIN_DEFAULT
+    path.write_text(TRAIN_DEFAULT.replace("\n" + old, "\n" + new, 1))
+    with pytest.raises(ConfigError) as info:
+        load_train_settings(path)
+    assert info.value.key == key and says in str(info.value)

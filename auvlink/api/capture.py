@@ -97,8 +97,8 @@ def read(path: str | Path, format: str | None = None) -> Records | Iterator[LogR
     no format: its messages come as :class:`LogRecord` in time order, as :meth:`MissionLog.records`.
     """
     p = Path(path)
-    if not p.is_file():
-        raise AuvlinkError(f"{p}: no such file")
+    if not p.is_file():  # a folder, or a FIFO or device that would block or never end
+        raise AuvlinkError(f"{p}: {'not a regular file (a folder, FIFO or device)' if p.exists() else 'no such file'}")
     if format is None:
         if _is_mcap(p):
             return _log_records(p)

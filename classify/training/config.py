@@ -12,9 +12,9 @@ import dataclasses
 import typing
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
-from pydantic import ConfigDict, Field, create_model
+from pydantic import AfterValidator, ConfigDict, Field, create_model
 
 from auvlink.errors import AuvlinkError, ConfigError
 from auvlink.validation import CONFIG, Boolean, Integer, Number, Text, read_toml, validate
@@ -40,15 +40,46 @@ _BOUNDS: dict[str, tuple[Any, ...]] = {
     "clutter_poll_m": ("gt", 0.0, 100.0), "run_span_m": (0.0, 10.0), "object_patch_views": (0, 100_000),
     "object_patch_lead_m": (0.0, 100.0), "object_patch_offset_m": ("gt", 0.0, 100.0),
 }
+#: bounds of each value of a [low, high] pair or a list (the pair itself must be in order)
+_BOUNDS.update({
+    "tilts_deg": ("gt", 0.0, 90.0), "noise_fraction": (0.0, 1.0), "altitude_m": ("gt", 0.0, 1000.0),
+    "fused_passes": (1, 10), "clutter_lines": (1, 100), "object_patch_lines": (1, 100), "scale": ("gt", 0.0, 10.0),
+    "jitter_sigma": (0.0, 10.0), "jitter_clip": (0.0, 10.0),
+})
+#: the words a text setting takes (synthesis_settings: any other word silently meant the other mode)
+_CHOICES: dict[str, tuple[str, ...]] = {"mode": ("paper", "scan"), "detect": ("cos", "energy"),
+                                        "correction": ("none", "arc"), "z_ref": ("mean", "seabed")}
 _LEAF = {float: Number, int: Integer, bool: Boolean, str: Text}
+
+
+def _values_check(name: str) -> Any:
+    """A validator of a [low, high] pair or a list: not empty, each value in ``name``'s bounds, a pair in order."""
+    bounds = _BOUNDS.get(name)
+
+    def check(values: tuple[float, ...]) -> tuple[float, ...]:
+        if not values:
+            raise ValueError("needs at least one value")
+        if bounds is not None:
+            lo, hi, low_ok = (bounds[1], bounds[2], False) if bounds[0] == "gt" else (bounds[0], bounds[1], True)
+            bad = [v for v in values if not ((v >= lo if low_ok else v > lo) and v <= hi)]
+            if bad:
+                raise ValueError(f"{bad[0]} is out of range (use values in {'[' if low_ok else '('}{lo}, {hi}])")
+        if len(values) == 2 and values[0] > values[1]:
+            raise ValueError(f"[{values[0]}, {values[1]}] is not a [low, high] range: write the smaller value first")
+        return values
+
+    return AfterValidator(check)
 
 
 def _leaf(tp: Any, name: str) -> Any:
     if typing.get_origin(tp) is tuple:
         args = typing.get_args(tp)
-        if len(args) == 2 and args[1] is Ellipsis:
-            return Annotated[tuple[_leaf(args[0], ""), ...], Field(max_length=100_000)]  # type: ignore[misc]
-        return tuple.__class_getitem__(tuple(_leaf(a, "") for a in args))
+        if len(args) == 2 and args[1] is Ellipsis:  # a list (tilts, headings)
+            items = tuple[_leaf(args[0], ""), ...]  # type: ignore[misc,valid-type]
+            return Annotated[items, Field(max_length=100_000), _values_check(name)]
+        return Annotated[tuple.__class_getitem__(tuple(_leaf(a, "") for a in args)), _values_check(name)]
+    if tp is str and name in _CHOICES:
+        return Literal[_CHOICES[name]]
     base = _LEAF.get(tp, tp)
     bounds = _BOUNDS.get(name)
     if bounds is None:
