@@ -108,11 +108,18 @@ def _can_gyro(m: Measurements, k: int) -> tuple[bytes, int | None]:
     return _can("GYRO_RATE", rate_z=float(g.rate[j, 2]), counter=k % 256, valid=1), None
 
 
+def ahrs_euler(heading: float, pitch: float, roll: float) -> tuple[float, float, float]:
+    """The attitude as an AHRS reports it: pitch in [-pi/2, pi/2] (noise past the vertical is the same
+    attitude with heading and roll turned by pi, as ZYX Euler angles give it), heading in [0, 2 pi]."""
+    if abs(pitch) > math.pi / 2.0:
+        heading, pitch, roll = (float(v) for v in Rotation.from_euler("ZYX", [heading, pitch, roll]).as_euler("ZYX"))
+    return min(heading % (2.0 * math.pi), 2.0 * math.pi), pitch, roll
+
+
 def _can_attitude(m: Measurements, k: int) -> tuple[bytes, int | None]:
     a = m.ahrs
-    heading = min(float(a.heading[k]), 2.0 * math.pi)
-    return _can("ATTITUDE", heading=heading, pitch=float(a.pitch[k]), roll=float(a.roll[k]),
-                counter=k % 256, valid=1), None
+    heading, pitch, roll = ahrs_euler(float(a.heading[k]), float(a.pitch[k]), float(a.roll[k]))
+    return _can("ATTITUDE", heading=heading, pitch=pitch, roll=roll, counter=k % 256, valid=1), None
 
 
 def _can_dvl_velocity(m: Measurements, k: int) -> tuple[bytes, int | None]:
