@@ -17,6 +17,7 @@ aris       soundmetrics.aris  Sound Metrics ARIS frames (1024-byte header + imag
 didson     soundmetrics.didson  DIDSON-class live frames (96 beams x 512 samples, ARIS header)
 can        can.dbc            CAN frames of the auvlink navigation DBC (cantools)
 nmea       nmea.0183          NMEA 0183 GNSS sentences (GGA, RMC, ZDA) via pynmea2
+oculus     blueprint.oculus   Blueprint Subsea Oculus sonar messages (SimplePingResult V1/V2, SimpleFire, status)
 =========  =================  ==============================================================
 """
 
@@ -63,6 +64,7 @@ _MODULES: dict[str, str] = {
     "didson": "auvlink.codecs.didson",
     "can": "auvlink.codecs.can_nav",
     "nmea": "auvlink.codecs.nmea",
+    "oculus": "auvlink.codecs.oculus",
 }
 _LOADED: dict[str, WireFormat] = {}
 

@@ -226,6 +226,21 @@ TABLE: dict[str, Entry] = {
         decoys=(b"\xa5\x5a",),
         gap_excludes=(b"\xa5\x5a",),
     ),
+    "oculus": Entry(
+        goldens=(Golden(
+            "shared:oculus/one_ping_8bit.raw", "Blueprint Oculus M1200d ping (liboculus test data, BSD-3); facts in "
+            "shared/data/README.md", frames=1, dropped=0,
+            expect={0: {"type": "simple_ping_result", "ping_id": 415323, "n_beams": 256, "n_ranges": 703,
+                        "bearing_min_rad": _deg(-30.0), "bearing_max_rad": _deg(30.0), "frequency_hz": 2098880.6,
+                        "range_resolution_m": 0.0028421889710794315, "speed_of_sound_mps": 1490.658551265436,
+                        "range_demand_m": 2.0, "gain_percent": 50.0, "image_offset": 2048, "image_size": 179968,
+                        "row_gain": False, "image_mean": 55.857}},
+            abs_tol=0.05, rel_tol=1e-9,
+        ),),
+        decoys=(b"SO", b"SO\x00\x00\x00\x00\x23\x00\x00\x00"),
+        gap_excludes=(b"SO",),
+        stream_frames=3,
+    ),
     # NMEA 0183 (added on the geo branch): the entry applies once ``nmea`` is registered
     "nmea": Entry(
         goldens=(
