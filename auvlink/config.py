@@ -20,7 +20,7 @@ The same model validates the configuration a mission log stores (:func:`config_f
     format = "pd0"                    # a wire-format name (auvlink.formats.names())
     url = "/dev/ttyUSB0?baudrate=115200"
     mounting = { xyz = [0.50, 0.00, 0.20], rpy_deg = [0.0, 0.0, 45.0] }  # lever arm in body FRD (m)
-    options = { }                     # optional; no format takes options yet (any key is an error)
+    options = { }                     # optional; only ``oculus`` takes options (auvlink.oculus_driver)
 
     [sonar]                           # optional: the forward-scan sonar's geometry (auvlink.sonar.Sonar)
     device = "sonar"                  # optional: which device is the sonar
@@ -50,6 +50,7 @@ from pydantic.dataclasses import dataclass
 
 from auvlink import formats
 from auvlink.errors import ConfigError
+from auvlink.oculus_driver import OPTIONS as OCULUS_OPTIONS
 from auvlink.sonar import Mounting, Sonar
 from auvlink.transports.urls import check_url
 from auvlink.validation import CONFIG, Site, Text, loads_toml, plain, read_toml, validate
@@ -57,8 +58,8 @@ from auvlink.validation import CONFIG, Site, Text, loads_toml, plain, read_toml,
 __all__ = ["CanConfig", "DeviceConfig", "Mounting", "Site", "SonarConfig", "VehicleConfig", "VehicleSonar",
            "config_from_metadata", "load_config", "loads_config", "parse_config"]
 
-#: options each wire format reads from ``devices[i].options`` (none reads any yet)
-DEVICE_OPTIONS: dict[str, frozenset[str]] = {}
+#: options each wire format reads from ``devices[i].options`` (the Oculus sonar's SimpleFire settings)
+DEVICE_OPTIONS: dict[str, frozenset[str]] = {"oculus": OCULUS_OPTIONS}
 
 
 @dataclass(frozen=True, config=CONFIG)
