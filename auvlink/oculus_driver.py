@@ -135,3 +135,11 @@ class OculusDriver(Driver):
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "fires_sent": self.fires_sent}
+
+
+def driver_for_device(name: str, fmt: str, url: str, options: Mapping[str, Any] | None = None) -> Driver:
+    """The driver of one configured device: an :class:`OculusDriver` for ``oculus`` (it must command the
+    sonar to get pings, with ``options`` as :class:`OculusSettings`), a plain :class:`Driver` otherwise."""
+    if fmt == "oculus":
+        return OculusDriver(name, url, OculusSettings.from_options(options or {}))
+    return Driver(name, fmt, url)

@@ -14,10 +14,11 @@ import pytest
 from auvlink.codecs import oculus
 from auvlink.codecs.oculus_messages import OculusFireCommand, OculusHeader
 from auvlink.config import loads_config
+from auvlink.driver import Driver
 from auvlink.errors import ConfigError
 from auvlink.framing.oculus import OculusFramer
 from auvlink.framing.oculus_defs import FLAG_SEND_GAIN
-from auvlink.oculus_driver import OculusDriver, OculusSettings
+from auvlink.oculus_driver import OculusDriver, OculusSettings, driver_for_device
 
 
 def _ping_for(cmd: OculusFireCommand, ping_id: int) -> bytes:
@@ -107,3 +108,10 @@ def test_fire_is_resent_on_read_when_due() -> None:
         time.sleep(0.06)
         drv.read(0.0)
         assert drv.fires_sent == 2
+
+
+def test_a_configured_oculus_device_gets_the_commanding_driver() -> None:
+    drv = driver_for_device("sonar", "oculus", "tcp://127.0.0.1:52100", {"range_m": 4.0, "data_bits": 16})
+    assert isinstance(drv, OculusDriver) and drv.settings.range_m == 4.0 and drv.settings.data_bits == 16
+    plain = driver_for_device("dvl", "pd0", "loop://")
+    assert type(plain) is Driver and plain.format.name == "pd0"

@@ -22,6 +22,7 @@ from typing import Any
 
 from auvlink.config import load_config
 from auvlink.driver import Driver
+from auvlink.oculus_driver import driver_for_device
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
 from logs_format.profile import LogError
 from logs_format.writer import MissionLogWriter
@@ -44,7 +45,7 @@ def record(config_path: str, out: str, duration: float | None = None, *, compres
     """Record until ``duration`` s passed or ``stop`` is set; returns per-device counters."""
     config = load_config(config_path)
     stop = stop or threading.Event()
-    drivers = [Driver(d.name, d.format, d.url) for d in config.devices]
+    drivers = [driver_for_device(d.name, d.format, d.url, d.options) for d in config.devices]
     opened: list[Driver] = []
     readers: list[PortReader] = []
     failure: list[str] = []  # the log could not be written (disk full): the recording stops there

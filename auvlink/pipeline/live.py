@@ -30,8 +30,8 @@ from typing import Any
 
 from auvlink.clock import now_ns
 from auvlink.config import VehicleConfig, load_config
-from auvlink.driver import Driver
 from auvlink.errors import AuvlinkError
+from auvlink.oculus_driver import driver_for_device
 from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.engine_hooks import EngineHooks
 from auvlink.pipeline.events import EventFolder
@@ -150,7 +150,7 @@ class LiveRun:
             log.add_vehicle_config(self.config)
             log.add_metadata(LIVE_META, {"t0_ns": t0_ns, "engine": self.engine_config.to_dict()})
             for dev in self.config.devices:
-                drv = Driver(dev.name, dev.format, dev.url)
+                drv = driver_for_device(dev.name, dev.format, dev.url, dev.options)
                 drv.add_raw_listener(self._log_tap, sensor_time=True)
                 readers.append(PortReader(drv, self._deliver, stop_readers, on_event=self._event,
                                           backoff_max=self.backoff_max))
