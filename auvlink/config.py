@@ -51,6 +51,7 @@ from pydantic.dataclasses import dataclass
 from auvlink import formats
 from auvlink.errors import ConfigError
 from auvlink.oculus_driver import OPTIONS as OCULUS_OPTIONS
+from auvlink.oculus_driver import OculusSettings
 from auvlink.sonar import Mounting, Sonar
 from auvlink.transports.urls import check_url
 from auvlink.validation import CONFIG, Site, Text, loads_toml, plain, read_toml, validate
@@ -155,6 +156,11 @@ def _check_devices(devices: list[DeviceConfig]) -> None:
             if key not in allowed:
                 raise ConfigError(f"{where}options.{key}", f"unknown option of format {dev.format!r}",
                                   f"allowed here: {', '.join(sorted(allowed)) or 'none (remove options)'}")
+        if dev.format == "oculus":  # the SimpleFire settings' values, checked before any port opens
+            try:
+                OculusSettings.from_options(dev.options)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}{exc.key}", exc.problem, exc.fix) from exc
         try:
             check_url(dev.url)
         except ConfigError as exc:

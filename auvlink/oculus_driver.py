@@ -57,6 +57,9 @@ class OculusSettings:
     keepalive_s: float = KEEPALIVE_S
 
     def __post_init__(self) -> None:
+        for f in fields(self):
+            if not isinstance(getattr(self, f.name), int | float):
+                raise ConfigError(f"options.{f.name}", f"bad value {getattr(self, f.name)!r}", "a number")
         checks = {
             "range_m": (math.isfinite(self.range_m) and self.range_m > 0, "a range demand > 0 m"),
             "gain_percent": (0 <= self.gain_percent <= 100, "a gain in [0, 100] %"),
@@ -87,9 +90,9 @@ class OculusSettings:
         flags = d.FLAG_RANGE_AS_METERS | d.FLAG_SIMPLE_RETURN
         flags |= d.FLAG_DATA_16BIT if self.data_bits == 16 else 0
         flags |= d.FLAG_SEND_GAIN if self.send_gain else 0
-        fire = OculusFire(master_mode=self.freq_mode, ping_rate=self.ping_rate, flags=flags, range=self.range_m,
-                          gain_percent=self.gain_percent, speed_of_sound_mps=self.speed_of_sound_mps,
-                          salinity_ppt=self.salinity_ppt,
+        fire = OculusFire(master_mode=int(self.freq_mode), ping_rate=int(self.ping_rate), flags=flags,
+                          range=float(self.range_m), gain_percent=float(self.gain_percent),
+                          speed_of_sound_mps=float(self.speed_of_sound_mps), salinity_ppt=float(self.salinity_ppt),
                           ext_flags=d.EXT_FLAG_DATA_32BIT if self.data_bits == 32 else 0)
         return OculusFireCommand(OculusHeader(msg_version=2 if self.data_bits == 32 else 1), fire)
 

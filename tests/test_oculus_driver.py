@@ -91,10 +91,15 @@ def test_driver_fires_keeps_alive_and_reports_pings(bits: int) -> None:
 def test_settings_are_checked_and_come_from_the_vehicle_config() -> None:
     with pytest.raises(ConfigError, match="freq_mode"):
         OculusSettings(freq_mode=3)
+    with pytest.raises(ConfigError, match=r"range_m.*a number"):
+        OculusSettings.from_options({"range_m": "far"})
     with pytest.raises(ConfigError, match="rnage_m"):
         OculusSettings.from_options({"rnage_m": 5.0})
     config = loads_config('[[devices]]\nname = "sonar"\nformat = "oculus"\nurl = "tcp://127.0.0.1:52100"\n'
                           'options = { range_m = 5.0, freq_mode = 1 }\n')
+    with pytest.raises(ConfigError, match=r"devices\[0\]\.options\.gain_percent"):
+        loads_config('[[devices]]\nname = "sonar"\nformat = "oculus"\nurl = "tcp://127.0.0.1:52100"\n'
+                     'options = { gain_percent = 150 }\n')
     settings = OculusSettings.from_options(config.device("sonar").options)
     assert settings.range_m == 5.0 and settings.freq_mode == 1
     cmd = settings.fire_command()
