@@ -138,3 +138,11 @@ def test_fire_and_status_round_trip(version: int, rate: int, range_m: float, gai
     status = OculusStatus(OculusHeader(7892, 0, 2, 0), 7892, 1, 1042, 5, (1, 2, 3, 4, 5, 6), "192.168.2.3",
                           "255.255.255.0", "192.168.2.10", "00:1a:2b:3c:4d:5e", (gain,) * 8, range_m)
     assert oculus.decode(oculus.encode(status)) == status
+
+
+def test_whole_message_fast_path_agrees_with_the_general_path(capture: bytes) -> None:
+    fast = OculusFramer()
+    assert fast.feed(capture)[0] is capture  # one whole message in one feed: no copy
+    two = capture[:5000] + capture  # a cut message then a whole one, in one feed: the general path
+    general = OculusFramer()
+    assert general.feed(two) + general.flush() == [capture] and general.stats.truncated == 1

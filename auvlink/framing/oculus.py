@@ -45,6 +45,17 @@ class OculusFramer(Framer):
         super().reset()
         self._checked = 0
 
+    def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
+        raw = data if isinstance(data, bytes) else bytes(data)
+        if message_length(raw, 0) != len(raw):
+            return None
+        inner = raw.find(OCULUS_ID_BYTES, 1)
+        while inner >= 0:  # what _extract checks: no sane (or undecidable) header inside the message
+            if message_length(raw, inner) != 0:
+                return None
+            inner = raw.find(OCULUS_ID_BYTES, inner + 1)
+        return raw
+
     def _inner_header(self, buf: bytearray, pos: int, n: int, final: bool) -> int:
         """Position of a sane header inside the candidate ``[pos, pos + n)``; -1 none yet (``self._checked``
         records how far the search went), -2 one may start at ``self._checked`` (more bytes needed)."""
