@@ -24,6 +24,7 @@ from auvlink import formats
 from auvlink.jsonutil import to_jsonable
 from auvlink.safe_names import UniqueNames, path_inside
 from logs_format.fan import FanGrid, fan_grid, save_fan_png, sonar_geometry
+from logs_format.profile import LogError
 from logs_format.replay import Replay
 
 MAX_LIST = 16
@@ -89,6 +90,14 @@ class _Csv:
         self.file.close()
 
 
+def _check_channels(wanted: set[str], present: Iterable[Any], path: str | Path) -> None:
+    """Refuse a channel name the log does not hold (a typo exported the other channels' navigation only)."""
+    names = {str(n) for ch in present for n in (ch.topic, ch.device) if n}
+    unknown = sorted(wanted - names)
+    if unknown:
+        raise LogError(f"--channels: no channel {unknown[0]!r} in {path} (its channels: {', '.join(sorted(names))})")
+
+
 def export_log(
     path: str | Path,
     out_dir: str | Path,
@@ -108,6 +117,8 @@ def export_log(
     names = UniqueNames(fallback="channel")  # devices whose names clean alike get files of their own
     try:
         with Replay(path, channels=channels) as rep:
+            if channels is not None:
+                _check_channels(set(channels), rep.reader.discover_channels().values(), path)
             for sample in rep.samples():
                 geometry = sonar_geometry(sample.record)
                 name = names.name_for(sample.device, ".csv" if geometry is None else "")

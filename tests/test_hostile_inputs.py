@@ -277,3 +277,12 @@ def test_training_words_and_ranges_checked(old: str, new: str, key: str, says: s
     with pytest.raises(ConfigError) as info:
         load_train_settings(path)
     assert info.value.key == key and says in str(info.value)
+
+
+def test_log_export_unknown_channel(small_mission_log: Path, tmp_path: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A misspelt --channels exported nothing of it (exit 0, navigation.csv alone)."""
+    line = _cli_error(["log", "export", str(small_mission_log), "--out", str(tmp_path / "e"), "--channels", "dvll"],
+                      capsys)
+    assert "'dvll'" in line and "dvl" in line.partition("its channels:")[2]
+    assert not (tmp_path / "e").exists()
