@@ -97,3 +97,25 @@ def test_losses_reported_by_kind(shared_data: Path, tmp_path: Path, capsys: pyte
     captured = capsys.readouterr()
     assert "9768 bytes skipped outside frames, truncated tail 512 bytes" in captured.out
     assert "a truncated frame of 512 bytes at the end" in captured.err
+
+
+def test_oculus_json_gives_the_capture_facts(shared_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`decode --json` carries the first and last records' fields: the facts of the Oculus capture's README."""
+    assert main(["decode", str(shared_data / "oculus" / "one_ping_8bit.raw"), "--format", "oculus", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    ping = summary["first_record"]
+    assert summary["records"] == 1 and summary["last_record"] == ping
+    assert (ping["ping_id"], ping["n_beams"], ping["n_ranges"]) == (415323, 256, 703)
+    assert (ping["bearing_min_deg"], ping["bearing_max_deg"]) == (-30.0, 30.0)
+    assert ping["frequency_hz"] == pytest.approx(2098880.6, abs=0.05)
+    assert ping["range_resolution_m"] == 0.0028421889710794315
+    assert ping["image_mean"] == pytest.approx(55.857, abs=5e-4)
+
+
+def test_json_first_and_last_records_differ_on_a_long_file(
+    shared_data: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["decode", str(shared_data / "rdi" / "RDI_withBT.000"), "--format", "pd0", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["records"] == 1721
+    assert summary["first_record"] != summary["last_record"]

@@ -20,7 +20,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", type=Path, help="the file to decode (a raw capture of the wire format)")
     p.add_argument("--format", "-f", required=True, choices=formats.names(), help="wire format of FILE")
     p.add_argument("--jsonl", action="store_true", help="one JSON object per record on stdout")
-    p.add_argument("--json", action="store_true", help="the summary as one JSON object")
+    p.add_argument(
+        "--json", action="store_true", help="the summary as one JSON object, with the first and last records' fields"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -30,13 +32,17 @@ def run(args: argparse.Namespace) -> int:
     fmt = formats.get(args.format)
     out = sys.stdout
     n_records = 0
+    ends: list[object] = []  # the first and the last record, for --json
 
     def emit(record: object) -> None:
         nonlocal n_records
         n_records += 1
+        if args.json:
+            ends[1:] = [record] if ends else []
+            if not ends:
+                ends.append(record)
         if args.jsonl:
-            payload = fmt.to_json(record) if fmt.to_json else record
-            out.write(dumps(payload) + "\n")
+            out.write(dumps(_as_json(fmt, record)) + "\n")
 
     result = decode_path(args.file, fmt, emit)
     for problem in result.problems[:50]:
@@ -45,7 +51,11 @@ def run(args: argparse.Namespace) -> int:
     if more > 0:
         print(f"auvlink decode: ... and {more} more problems", file=sys.stderr)
     if args.json:
-        out.write(dumps(result.summary()) + "\n")
+        summary = result.summary()
+        if ends:
+            summary["first_record"] = _as_json(fmt, ends[0])
+            summary["last_record"] = _as_json(fmt, ends[-1])
+        out.write(dumps(summary) + "\n")
     elif not args.jsonl:
         out.write(result.human_summary() + "\n")
     if n_records == 0:
@@ -55,3 +65,8 @@ def run(args: argparse.Namespace) -> int:
         )
         return 2
     return 0
+
+
+def _as_json(fmt: formats.WireFormat, record: object) -> object:
+    """A record as the format writes it to JSON (its own ``to_json`` where it has one)."""
+    return fmt.to_json(record) if fmt.to_json else record
