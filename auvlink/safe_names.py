@@ -66,7 +66,7 @@ class UniqueNames:
         base = safe_name(key, self.fallback)
         stem, k = base, 2
         while f"{stem}{suffix}".lower() in self._taken:
-            stem, k = f"{base}-{k}", k + 1
+            stem, k = safe_name(f"{base}-{k}"), k + 1  # made safe again: "_LPT1" + "-2" is "LPT1-2"
         self._taken.add(f"{stem}{suffix}".lower())
         self._given[(key, suffix)] = stem
         return stem
