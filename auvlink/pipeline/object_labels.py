@@ -5,11 +5,19 @@ on first use (PyTorch loads only when a run classifies), and records every class
 ``clutter`` (:attr:`ObjectLabeller.scores`, what ``auvlink eval --clutter-sweep`` replays the rule on). The rule:
 an object the classifier calls clutter is not reported (its id is counted in :attr:`ObjectLabeller.clutter`); a
 later pass fused into it (same id) is classified afresh, and an id once reported is never made clutter.
+
+When an object is classified: the engine hands over an object only when recon finalizes it (the vehicle is past
+it) or when a later pass fused into it changes its points; there is no re-classification of a growing object
+before that. Nothing is classified twice for the same points: the class probabilities are cached by the cloud's
+content (a BLAKE2 digest of its float64 points and its seabed depth, :func:`cloud_key`), so an emission whose
+cloud did not change reuses them (:attr:`ObjectLabeller.forward_clouds` counts the clouds run through the network,
+:attr:`ObjectLabeller.cache_hits` the reused ones).
 :func:`make_detection` turns a finalized object and its class into the :class:`Detection` handed on.
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Container, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -25,6 +33,17 @@ if TYPE_CHECKING:
     from classify.infer import Classifier
 
 
+def cloud_key(points: npt.ArrayLike, seabed_depth: float) -> bytes:
+    """A digest of a cloud's points (float64, C order, with its shape) and its seabed depth (m): equal keys, equal
+    classifier inputs."""
+    p = np.ascontiguousarray(points, dtype=np.float64)
+    h = hashlib.blake2b(digest_size=16)
+    h.update(np.asarray(p.shape, dtype=np.int64).tobytes())
+    h.update(p.tobytes())
+    h.update(np.float64(seabed_depth).tobytes())
+    return h.digest()
+
+
 class ObjectLabeller:
     """``enabled`` False: every object is ``unknown`` (no classifier). ``clutter_threshold`` replaces the
     checkpoint's (None: the checkpoint's; ``math.inf``: nothing is called clutter)."""
@@ -35,6 +54,9 @@ class ObjectLabeller:
         self.clutter: set[int] = set()  # ids of the clusters called clutter (not reported)
         #: (object id, probability of clutter) of every classification, in order: an id appears once per emission
         self.scores: list[tuple[int, float]] = []
+        self._cache: dict[bytes, npt.NDArray[np.float32]] = {}  # cloud_key -> class probabilities
+        self.forward_clouds = 0  # clouds run through the network
+        self.cache_hits = 0  # clouds whose probabilities came from the cache
 
     def load(self) -> None:
         """Load the classifier now (live does it before opening the ports)."""
@@ -53,9 +75,7 @@ class ObjectLabeller:
             self.load()
             clf = self.classifier
             assert clf is not None
-            # recon fitted the seabed once for the poll that made these objects, and each carries its depth
-            prob = clf.probabilities([o.points for o in objects],
-                                     seabed_depths=[float(o.seabed_depth) for o in objects])
+            prob = self.probabilities(clf, objects)
             labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects])
             if clf.clutter_index is not None:
                 self.scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index],
@@ -66,6 +86,20 @@ class ObjectLabeller:
             else:
                 self.clutter.discard(int(o.id))
         return labels
+
+
+    def probabilities(self, clf: Classifier, objects: Sequence[DetectedObject]) -> npt.NDArray[np.float32]:
+        """Class probabilities ``(len(objects), k)``: from the cache for a cloud classified before, the others in
+        one :meth:`Classifier.probabilities` call (recon fitted the seabed for the poll; each object carries it)."""
+        keys = [cloud_key(o.points, float(o.seabed_depth)) for o in objects]
+        todo = sorted({k: i for i, k in enumerate(keys) if k not in self._cache}.values())
+        if todo:
+            fresh = clf.probabilities([objects[i].points for i in todo],
+                                      seabed_depths=[float(objects[i].seabed_depth) for i in todo])
+            self._cache.update({keys[i]: row for i, row in zip(todo, fresh, strict=True)})
+            self.forward_clouds += len(todo)
+        self.cache_hits += len(objects) - len(todo)
+        return np.stack([self._cache[k] for k in keys])
 
 
 def make_detection(o: DetectedObject, class_name: str, score: float, shift: npt.NDArray[np.float64],
