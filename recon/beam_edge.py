@@ -13,7 +13,9 @@ return there; the profile's 5th percentile when the window starts beyond it)
 and its seabed level ``P`` (the 90th percentile of the profile), both in the image's own grey levels. The
 onset is the first range at which the profile reaches the midpoint ``(N + P) / 2`` of that log-intensity step (the
 edge of a step at half its height, the usual edge convention; gain and TVG shift both levels alike). The
-seabed plane is the flat seabed at the DVL altitude under the vehicle, with its attitude: the elevation
+seabed plane is the one the onset stage predicts the onset with (:meth:`recon.onset_stage.OnsetStage.seabed_planes`:
+the seabed fitted so far where the fan looks, else the flat seabed at the DVL altitude under the vehicle), seen
+with the vehicle's attitude: the elevation
 (in the sonar frame, above the fan's axis) whose ray meets that plane at the onset range, the median over the
 central beams (the onset varies a little with the azimuth), is the frame's edge.
 Frames with a step smaller than :data:`MIN_STEP_MAD` MADs of the water (no seabed in the window) give none.
@@ -61,26 +63,29 @@ def _smoothed(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, 
     return az[central], np.asarray((c[:, k:] - c[:, :-k]) / k, dtype=np.float64)
 
 
-def _plane_terms(geometry: SonarGeometry, pos: F64, rot: Rotation, alt: F64, az: F64) -> tuple[F64, F64, F64]:
-    """The sonar's height (F,) above the flat seabed ``alt`` m under the vehicle and, per beam at azimuth ``az``,
-    the terms ``a``, ``b`` (F, C) of the seabed's normal in S: a ray at elevation ``phi`` meets the seabed at range
-    ``height / (a cos phi + b sin phi)``, as in :meth:`SonarGeometry.onset_ranges`."""
+def _plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, normal: F64, az: F64
+                 ) -> tuple[F64, F64, F64]:
+    """The sonar's height (F,) above the seabed plane (``point``, unit ``normal`` into the water, (F, 3) each) and,
+    per beam at azimuth ``az``, the terms ``a``, ``b`` (F, C) of the normal in S: a ray at elevation ``phi`` meets
+    the plane at range ``height / (a cos phi + b sin phi)``, as in :meth:`SonarGeometry.onset_ranges`."""
     m_wb = rot.as_matrix().reshape(-1, 3, 3)
     m_ws = m_wb @ geometry.mounting.rotation.as_matrix()
     origin = pos + m_wb @ geometry.mounting.lever
-    height = (pos[:, 2] + alt) - origin[:, 2]
-    n_s = np.einsum("i,fij->fj", np.array([0.0, 0.0, -1.0]), m_ws)
+    height = np.einsum("fi,fi->f", normal, origin - point)
+    n_s = np.einsum("fi,fij->fj", normal, m_ws)
     a = -(n_s[:, :1] * np.cos(az) + n_s[:, 1:2] * np.sin(az))
     return height, a, np.broadcast_to(-n_s[:, 2:3], a.shape)
 
 
-def frame_edges(images: NDArray[np.uint8], geometry: SonarGeometry, pos: F64, rot: Rotation, alt: F64) -> F64:
+def frame_edges(images: NDArray[np.uint8], geometry: SonarGeometry, pos: F64, rot: Rotation, point: F64,
+                normal: F64) -> F64:
     """Per frame, the effective steepest elevation (rad, above the fan's axis, in S) measured from its seabed
-    onset (module docstring); NaN where the frame shows no onset or the altitude is unknown."""
+    onset against the seabed plane (``point``, unit ``normal`` into the water, (F, 3) each) (module docstring);
+    NaN where the frame shows no onset or the plane is unknown."""
     az, cols = _smoothed(images, geometry)
     prof = cols.mean(axis=2)
     r = geometry.ranges
-    height, a, b = _plane_terms(geometry, pos, rot, np.where(np.isfinite(alt), alt, np.nan), az)
+    height, a, b = _plane_terms(geometry, rot, pos, point, normal, az)
     no_seabed = r[None, :] < height[:, None]
     has_water = no_seabed.sum(axis=1) >= 8
     water_rows = np.where(no_seabed | ~has_water[:, None], prof, np.nan)  # all rows where there is no water: unused

@@ -129,14 +129,43 @@ def frame_thresholds(images: NDArray[np.uint8], stat_rows: int, cfg: HighlightCo
     return np.maximum(thr, float(cfg.min_level))
 
 
-def row_thresholds(images: NDArray[np.uint8], thr: F64, k: float) -> F64:
-    """(F, bins) thresholds: per frame and range row, at least the frame's ``thr`` (F,) and at least the row's
-    own background across the fan, median + ``k`` * 1.4826 * MAD over the beams (MAD floored at one grey level):
-    a return stands out of what the fan sees at its range, whatever gain, TVG and vertical pattern made the
-    seabed's ramp, an interference band or a sidelobe arc that spans the fan."""
-    med = np.median(images, axis=2)
-    mad = np.maximum(np.median(np.abs(images - med[:, :, None]), axis=2), 1.0)
-    return np.maximum(np.asarray(thr, np.float64)[:, None], med + k * MAD_SCALE * mad)
+def row_background(images: NDArray[np.uint8], n_rows: int) -> tuple[F64, F64]:
+    """Median and MAD (MAD floored at one grey level) over the beams of each of the first ``n_rows`` rows of a stack
+    (F, bins, beams): what the fan sees at each range (objects fill a minority of the beams); (F, n_rows) each."""
+    head = images[:, :n_rows].astype(np.float64)
+    med = np.median(head, axis=2)
+    return med, np.maximum(np.median(np.abs(head - med[:, :, None]), axis=2), 1.0)
+
+
+def row_thresholds(images: NDArray[np.uint8], thr: F64, k: float, n_rows: int | None = None) -> F64:
+    """(F, bins) thresholds: per frame and range row, at least ``thr`` (per frame (F,) or row (F, bins)) and, in
+    the first ``n_rows`` rows (default all), at least the row's own background across the fan, median + ``k`` *
+    1.4826 * MAD over the beams (:func:`row_background`): a return stands out of what the fan sees at its range,
+    whatever gain, TVG and vertical pattern made the seabed's ramp, an interference band or a sidelobe arc that
+    spans the fan."""
+    f, n_bins, _ = images.shape
+    n = n_bins if n_rows is None else max(0, min(n_bins, int(n_rows)))
+    floor = np.asarray(thr, np.float64)
+    return thresholds_over(np.broadcast_to(floor if floor.ndim == 2 else floor[:, None], (f, n_bins)),
+                           *row_background(images, n), k)
+
+
+def thresholds_over(thr: F64, med: F64, mad: F64, k: float) -> F64:
+    """:func:`row_thresholds` over ``thr`` (F, bins) from the rows' background (``med``, ``mad`` (F, n) of
+    :func:`row_background`)."""
+    out = np.array(thr, dtype=np.float64)
+    n = med.shape[1]
+    out[:, :n] = np.maximum(out[:, :n], med + k * MAD_SCALE * mad)
+    return out
+
+
+def interfered_rows(med: F64, background: F64, limits: I64) -> NDArray[np.bool_]:
+    """(F, n) rows bright across most of the fan before every beam's onset: the row's median over the beams
+    (``med`` of :func:`row_background`) above the ``background`` threshold (F, bins) of the water there (an
+    interference band, a fan-wide arc); ``limits`` (F, beams) the onset rows."""
+    n = med.shape[1]
+    before = np.arange(n)[None, :] < limits.min(axis=1, initial=n)[:, None]
+    return np.asarray(before & (med > background[:, :n]), dtype=np.bool_)
 
 
 def onset_rows(geometry: SonarGeometry, onset: F64, margin_m: float) -> I64:
@@ -205,14 +234,15 @@ def returns_between(images: NDArray[np.uint8], lo: I64, hi: I64, thr: F64, min_r
                     ) -> tuple[I64, I64, I64]:
     """(frame, beam, row) of the first run above ``thr`` with lo <= row < hi (both (F, beams)).
 
-    Used for the seabed returns at the onset (lo = onset row - margin, hi = lo + a band).
+    Used for the seabed returns at the onset (lo = onset row - margin, hi = lo + a band); ``thr`` per frame (F,)
+    or per frame and row (F, bins).
     """
     n_bins = images.shape[1]
     a, b = int(lo.min(initial=n_bins)), int(min(n_bins, hi.max(initial=0) + max(1, min_run) - 1))
     if b - a < max(1, min_run):
         return (np.zeros(0, np.int64),) * 3
     thr_u = np.clip(np.floor(thr), 0, 255).astype(np.uint8)
-    above = images[:, a:b] > thr_u[:, None, None]
+    above = images[:, a:b] > (thr_u[:, a:b, None] if thr_u.ndim == 2 else thr_u[:, None, None])
     n_valid = b - a - max(1, min_run) + 1
     mask = above[:, :n_valid]
     for k in range(1, max(1, min_run)):

@@ -24,6 +24,7 @@ from recon.seabed import SeabedModel
 from recon.seabed_band import SEABED_BAND, OnsetTracker, seabed_returns
 from recon.seabed_memory import SeabedMemory
 from recon.sonar_geometry import SonarGeometry
+from recon.water_threshold import WaterThreshold, histogram_thresholds
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -38,10 +39,13 @@ ONSET_REFIT_FRAMES = 100
 @dataclass(frozen=True, eq=False)
 class FrameOnsets:
     """The onset stage's result for a batch of F frames: ``onset`` (F, beams) corrected expected onset ranges (m),
-    ``threshold`` (F,) grey levels, and the seabed returns ``seabed`` as (frame, beam, row) arrays."""
+    ``threshold`` (F,) grey levels, ``row_threshold`` (F, bins) the threshold of each row (at least ``threshold`` and
+    the background before the onsets of the frames so far, :mod:`recon.water_threshold`), and the seabed returns
+    ``seabed`` as (frame, beam, row) arrays."""
 
     onset: F64
     threshold: F64
+    row_threshold: F64
     seabed: tuple[I64, I64, I64]
 
 
@@ -54,6 +58,7 @@ class OnsetStage:
         self._cache: tuple[F64, F64, int, SeabedModel] | None = None
         self._model: SeabedModel | None = None  # the fit behind the latest expected onsets
         self._fit_frame = 0
+        self._water = WaterThreshold(geometry.n_bins)  # the background before the onsets (recon.water_threshold)
 
     def run(self, frames_before: int, images: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64) -> FrameOnsets:
         """The onsets, thresholds and seabed returns of ``images`` (F, bins, beams) at poses ``pos``, ``rot`` and
@@ -68,8 +73,11 @@ class OnsetStage:
         known = self._slope_known(self._model)
         self._tracker.set_known(known)
         lead_m = band.lead_m if known else band.lead_flat_m
-        sf, sb, sr = seabed_returns(g, images, onset, thr, hc.margin_m, band, lead_m)
-        return FrameOnsets(self._tracker.correct(g, onset, sf, sb, sr), thr, (sf, sb, sr))
+        rows = np.fmax(thr[:, None], histogram_thresholds(self._water.hist)[None, :])  # the frames before these
+        sf, sb, sr = seabed_returns(g, images, onset, rows, hc.margin_m, band, lead_m)
+        onset = self._tracker.correct(g, onset, sf, sb, sr)
+        rows = np.fmax(thr[:, None], self._water.update(images, onset_rows(g, onset, hc.margin_m))[None, :])
+        return FrameOnsets(onset, thr, rows, (sf, sb, sr))
 
     def _predicted(self, frames_before: int, pos: F64, rot: Rotation, alt: F64) -> F64:
         """Expected seabed onset per frame and beam: the fitted seabed plane where the fan looks, else a flat
@@ -83,16 +91,30 @@ class OnsetStage:
 
     def _onset_of(self, model: SeabedModel | None, pos: F64, rot: Rotation, alt: F64) -> F64:
         """Onset ranges (F, beams) predicted by ``model`` (None: a flat seabed at the DVL altitude)."""
-        g = self.geometry
         if model is None:
-            return g.flat_onset_ranges(pos, rot, alt)
+            return self.geometry.flat_onset_ranges(pos, rot, alt)
+        return self.geometry.onset_ranges(pos, rot, *self.seabed_planes(pos, rot, alt, model))
+
+    def seabed_planes(self, pos: F64, rot: Rotation, alt: F64, model: SeabedModel | None = None,
+                      frames_before: int | None = None) -> tuple[F64, F64]:
+        """Per frame the seabed plane where the fan's edge looks: a point (F, 3) and the unit normal into the water
+        (F, 3), from ``model`` (default: the seabed fitted around ``pos`` for the expected onsets of a batch after
+        ``frames_before`` frames, or the latest fit when that is None), else the flat seabed at the DVL altitude
+        ``alt`` under the vehicle (NaN where that is unknown)."""
+        if model is None:
+            model = self._model if frames_before is None else self._seabed_model(frames_before, pos)
+        if model is None:
+            q = np.array(pos, dtype=np.float64)
+            q[:, 2] += alt
+            return q, np.tile([0.0, 0.0, -1.0], (q.shape[0], 1))
+        g = self.geometry
         known = np.isfinite(alt)
         h = alt if known.all() else np.where(known, alt, model.depth_at(pos) - pos[:, 2])
         fwd = rot.as_matrix().reshape(-1, 3, 3)[:, :2, 0]
         fwd = fwd / np.maximum(np.linalg.norm(fwd, axis=1, keepdims=True), 1e-9)
         look = pos[:, :2] + fwd * (np.maximum(h, 0.0) / np.tan(g.tilt + 0.5 * g.spread))[:, None]
         q, n = model.plane_at(look)
-        return g.onset_ranges(pos, rot, q, n)
+        return np.asarray(q, np.float64).reshape(-1, 3), np.broadcast_to(np.asarray(n, np.float64), (len(pos), 3))
 
     def _slope_known(self, model: SeabedModel | None) -> bool:
         """True when ``model`` was fitted over ``SEABED_BAND.known_span_m`` of seabed or more (its slope ahead is

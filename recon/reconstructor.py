@@ -19,16 +19,26 @@ Pure computation: no ports, no files.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from recon.beam_edge import BeamEdge, frame_edges
 from recon.cluster import DetectedObject
 from recon.errors import GeometryError
 from recon.frames import check_attitude
-from recon.highlight import first_returns, onset_rows, project, run_span_bins
+from recon.highlight import (
+    first_returns,
+    interfered_rows,
+    onset_rows,
+    project,
+    row_background,
+    run_span_bins,
+    thresholds_over,
+)
 from recon.object_stage import ObjectStage
 from recon.onset_stage import OnsetStage
 from recon.range_arcs import arc_columns
@@ -61,6 +71,9 @@ class Reconstructor:
     def __init__(self, geometry: SonarGeometry, poses: PoseSource, config: ReconConfig | None = None,
                  seabed_points: ArrayLike | None = None, *, dvl_max_pitch: float = np.inf) -> None:
         self.geometry = geometry
+        self.nominal_geometry = geometry
+        #: the effective lower edge of the fan, from the seabed onset against the DVL altitude (recon.beam_edge)
+        self.beam_edge = BeamEdge(0.5 * geometry.spread)
         self.poses = poses
         self.config = config or ReconConfig()
         self.dvl_max_pitch = dvl_max_pitch
@@ -69,6 +82,8 @@ class Reconstructor:
         self._objects = ObjectStage(self.config, self.memory, geometry.spread)
         self.frames = 0
         self.frames_with_points = 0
+        #: frames with a band bright across most of the fan before the seabed (interference; no points from it)
+        self.interfered_frames = 0
         self.points_total = 0
         self._t_last = -np.inf
         #: the first returns of the last :meth:`add_frames` call: (frame index in that call, beam, row) arrays
@@ -102,10 +117,15 @@ class Reconstructor:
             self.add_seabed_points(dvl)
         pos, rot = self.poses.pose_at(ts)
         check_attitude(rot)
-        onsets = self._onsets.run(self.frames, imgs, pos, rot, self.poses.altitude_at(ts))  # 1. onset
+        alt = self.poses.altitude_at(ts)
+        g = self._effective_geometry(imgs, pos, rot, alt)
+        onsets = self._onsets.run(self.frames, imgs, pos, rot, alt)  # 1. onset
         hc = cfg.highlight
         limits = onset_rows(g, onsets.onset, hc.margin_m)
-        fi, bi, ri = first_returns(imgs, limits, onsets.threshold, hc, run_span_bins(hc, g.bin_size))  # 2. returns
+        med, mad = row_background(imgs, min(g.n_bins, int(limits.max(initial=0)) + run_span_bins(hc, g.bin_size)))
+        thr = thresholds_over(onsets.row_threshold, med, mad, hc.k)  # what stands out of its row and the water
+        self.interfered_frames += int(interfered_rows(med, onsets.row_threshold, limits).any(axis=1).sum())
+        fi, bi, ri = first_returns(imgs, limits, thr, hc, run_span_bins(hc, g.bin_size))  # 2. returns
         self.last_returns = (fi, bi, ri)
         pts = np.asarray(project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype), dtype=np.float64)  # 3. points
         arcs = arc_columns(g, fi, bi, ri, pos, rot) if cfg.front_slope else np.zeros((fi.size, 0))
@@ -118,6 +138,19 @@ class Reconstructor:
         self.points_total += int(fi.size)
         self._t_last = max(self._t_last, float(ts.max(initial=-np.inf)))
         return int(fi.size)
+
+    def _effective_geometry(self, imgs: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64) -> SonarGeometry:
+        """The geometry with the fan's effective lower edge (:mod:`recon.beam_edge`) after this batch's frames:
+        the spread whose upper half is the estimated edge (the fan's axis, tilt and beams unchanged)."""
+        nominal = self.nominal_geometry
+        if not self.config.effective_edge:
+            return nominal
+        point, normal = self._onsets.seabed_planes(pos, rot, alt, frames_before=self.frames)
+        half = self.beam_edge.update(frame_edges(imgs, nominal, pos, rot, point, normal), nominal.tilt)
+        if half != 0.5 * self.geometry.spread:
+            self.geometry = replace(nominal, spread=2.0 * half)
+            self._onsets.geometry = self.geometry
+        return self.geometry
 
     @property
     def raw_points(self) -> F64:

@@ -28,6 +28,12 @@ def _seabed_frames(geometry: SonarGeometry, alt: float, pitch_deg: float, n: int
     return np.clip(img, 0, 255).astype(np.uint8), pos, rot, alts
 
 
+def _flat(pos: np.ndarray, alts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The flat seabed ``alts`` m under each position: points and normals into the water (NED: up)."""
+    q = pos + np.outer(alts, [0.0, 0.0, 1.0])
+    return q, np.tile([0.0, 0.0, -1.0], (len(pos), 1))
+
+
 @pytest.mark.parametrize(("half_deg", "alt", "pitch_deg", "gain"), [(7.0, 5.0, 0.0, 0.0), (12.0, 4.0, 3.0, 40.0),
                                                                      (16.0, 6.0, -2.0, -5.0)])
 def test_frame_edges_recover_the_edge_the_seabed_shows(half_deg: float, alt: float, pitch_deg: float,
@@ -35,7 +41,7 @@ def test_frame_edges_recover_the_edge_the_seabed_shows(half_deg: float, alt: flo
     nominal = SonarGeometry.from_degrees(30.0, 14.0)
     truth = replace(nominal, spread=np.radians(2.0 * half_deg))
     imgs, pos, rot, alts = _seabed_frames(truth, alt, pitch_deg, 5, np.random.default_rng(3), gain)
-    edges = np.degrees(frame_edges(imgs, nominal, pos, rot, alts))
+    edges = np.degrees(frame_edges(imgs, nominal, pos, rot, *_flat(pos, alts)))
     # one range bin (0.02 m) at ~7 m moves the elevation by ~0.2 deg; the quarter-metre average is trailing
     assert np.all(np.abs(edges - half_deg) < 0.5), edges
 
@@ -45,9 +51,9 @@ def test_frame_edges_none_without_seabed_or_altitude() -> None:
     rng = np.random.default_rng(4)
     water = np.clip(rng.normal(10.0, 6.0, (2, g.n_bins, g.n_beams)), 0, 255).astype(np.uint8)
     pos, rot = np.zeros((2, 3)), Rotation.identity(2)
-    assert np.isnan(frame_edges(water, g, pos, rot, np.array([5.0, 5.0]))).all()
+    assert np.isnan(frame_edges(water, g, pos, rot, *_flat(pos, np.array([5.0, 5.0])))).all()
     imgs, pos, rot, _ = _seabed_frames(g, 5.0, 0.0, 2, rng)
-    assert np.isnan(frame_edges(imgs, g, pos, rot, np.array([np.nan, np.nan]))).all()
+    assert np.isnan(frame_edges(imgs, g, pos, rot, *_flat(pos, np.array([np.nan, np.nan])))).all()
 
 
 def test_beam_edge_nominal_until_enough_frames_then_follows_the_data() -> None:
