@@ -249,6 +249,16 @@ def test_tvg_error_tilts_the_level_along_range() -> None:
     assert 10.0 * np.log10(ratio[1] / ratio[0]) == pytest.approx(-12.0)
 
 
+
+def test_a_positive_tvg_error_on_far_samples_stays_finite() -> None:
+    """A ray grazing a distant seabed (1e5 m) under +2 dB/m: no overflow, a finite image (it was NaN grey)."""
+    im = _imager(tvg_error_db_per_m=2.0)
+    n = im.g.n_rays
+    r = np.where(np.arange(n) % 2 == 1, 1e5, 5.0)
+    with np.errstate(over="raise", invalid="raise"):
+        energy = im.sample_energy(r, np.full(n, 0.5), np.full(n, 1e-3), np.zeros(n, bool))
+    assert np.isfinite(energy).all()
+
 # --- gain, interference -----------------------------------------------------------------------
 def _imager(**overrides: float | str) -> AcousticImager:
     scene = _flat("didson", gain_jitter_db=0.0, **overrides)

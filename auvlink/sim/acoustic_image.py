@@ -179,7 +179,11 @@ class AcousticImager:
         with np.errstate(invalid="ignore"):
             e = sigma * self.weight * rng_ / (np.maximum(cos_a, MIN_COS) * self.g.bin_width)
             if self.p.tvg_error_db_per_m:
-                e *= 10.0 ** (self.p.tvg_error_db_per_m * (rng_ - self.r_mid) / 10.0)
+                # ranges clipped to the window: a sample beyond it lands in no bin, and its far range
+                # (a ray grazing a distant seabed) would overflow the exponent
+                window_end = self.g.window_start + self.g.n_bins * self.g.bin_width
+                r_in = np.clip(rng_, self.g.window_start, window_end)
+                e *= 10.0 ** (self.p.tvg_error_db_per_m * (r_in - self.r_mid) / 10.0)
         return np.where(np.isfinite(rng_), e, 0.0)
 
     def integrate(self, rng_: F64, energy: F64, surface: NDArray[np.int32]) -> F64:
