@@ -73,10 +73,13 @@ class OnsetStage:
         known = self._slope_known(self._model)
         self._tracker.set_known(known)
         lead_m = band.lead_m if known else band.lead_flat_m
-        rows = np.fmax(thr[:, None], histogram_thresholds(self._water.hist)[None, :])  # the frames before these
+        # the frames before these (recon.water_threshold), with ReconConfig.calibrate; else the frame's threshold
+        background = histogram_thresholds(self._water.hist) if self.config.calibrate else np.full(g.n_bins, np.nan)
+        rows = np.fmax(thr[:, None], background[None, :])
         sf, sb, sr = seabed_returns(g, images, onset, rows, hc.margin_m, band, lead_m)
         onset = self._tracker.correct(g, onset, sf, sb, sr)
-        rows = np.fmax(thr[:, None], self._water.update(images, onset_rows(g, onset, hc.margin_m))[None, :])
+        if self.config.calibrate:
+            rows = np.fmax(thr[:, None], self._water.update(images, onset_rows(g, onset, hc.margin_m))[None, :])
         return FrameOnsets(onset, thr, rows, (sf, sb, sr))
 
     def _predicted(self, frames_before: int, pos: F64, rot: Rotation, alt: F64) -> F64:

@@ -27,6 +27,8 @@ class ReconConfig:
     front_slope_length: float = 1.0  # m: how far behind a point its object's top is sought
     front_slope_width: float = 0.25  # m: across the look direction
     far_side: FarSideConfig = field(default_factory=FarSideConfig)  # with front_slope: centroid (recon.far_side)
-    # the fan's lower edge estimated from the seabed onset (recon.beam_edge) in place of the nominal tilt + spread / 2
-    # (off: on the ideal simulator's sparse ray comb the estimate is off by up to 1 deg)
-    effective_edge: bool = False
+    # recon calibrated from the frames: the fan's lower edge estimated from the seabed onset (recon.beam_edge) in place
+    # of the nominal tilt + spread / 2, thresholds per range row from the background before the onset
+    # (recon.water_threshold) and the row across the fan (recon.highlight.row_thresholds), interfered frames counted.
+    # Off by default: on the ideal simulator's sparse ray comb (16 rays) the edge is off by up to 1 deg
+    calibrate: bool = False

@@ -122,9 +122,11 @@ class Reconstructor:
         onsets = self._onsets.run(self.frames, imgs, pos, rot, alt)  # 1. onset
         hc = cfg.highlight
         limits = onset_rows(g, onsets.onset, hc.margin_m)
-        med, mad = row_background(imgs, min(g.n_bins, int(limits.max(initial=0)) + run_span_bins(hc, g.bin_size)))
-        thr = thresholds_over(onsets.row_threshold, med, mad, hc.k)  # what stands out of its row and the water
-        self.interfered_frames += int(interfered_rows(med, onsets.row_threshold, limits).any(axis=1).sum())
+        thr = onsets.row_threshold
+        if cfg.calibrate:  # what stands out of its row and the water (recon.highlight.row_thresholds)
+            med, mad = row_background(imgs, min(g.n_bins, int(limits.max(initial=0)) + run_span_bins(hc, g.bin_size)))
+            thr = thresholds_over(onsets.row_threshold, med, mad, hc.k)
+            self.interfered_frames += int(interfered_rows(med, onsets.row_threshold, limits).any(axis=1).sum())
         fi, bi, ri = first_returns(imgs, limits, thr, hc, run_span_bins(hc, g.bin_size))  # 2. returns
         self.last_returns = (fi, bi, ri)
         pts = np.asarray(project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype), dtype=np.float64)  # 3. points
@@ -143,7 +145,7 @@ class Reconstructor:
         """The geometry with the fan's effective lower edge (:mod:`recon.beam_edge`) after this batch's frames:
         the spread whose upper half is the estimated edge (the fan's axis, tilt and beams unchanged)."""
         nominal = self.nominal_geometry
-        if not self.config.effective_edge:
+        if not self.config.calibrate:
             return nominal
         point, normal = self._onsets.seabed_planes(pos, rot, alt, frames_before=self.frames)
         half = self.beam_edge.update(frame_edges(imgs, nominal, pos, rot, point, normal), nominal.tilt)
