@@ -75,6 +75,11 @@ def check_cloud(points: npt.ArrayLike) -> npt.NDArray[np.float64]:
     return p
 
 
+def pad_by_repeating(points: npt.NDArray[np.float32], n: int) -> npt.NDArray[np.float32]:
+    """The cloud ``(m, 3)`` grown to ``(n, 3)``, ``n >= m``, by repeating its points in order (the set is unchanged)."""
+    return points if len(points) == n else np.resize(points, (n, points.shape[1]))
+
+
 def _seabed_or_deepest(points: npt.NDArray[np.float64], seabed_depth: float | None) -> float:
     """``seabed_depth`` when known (finite), else the cloud's deepest point (NED z max)."""
     if seabed_depth is None or not np.isfinite(seabed_depth):
@@ -136,26 +141,28 @@ class Classifier:
         return normalize_cloud(points, self.scale_m, self.z_ref if self.scale_m > 0 else "mean",
                                _seabed_or_deepest(points, seabed_depth)).astype(np.float32)
 
-    def probabilities(self, clouds: Sequence[npt.ArrayLike], batch_size: int = 8,
+    def probabilities(self, clouds: Sequence[npt.ArrayLike], batch_size: int = 16,
                       seabed_depths: Sequence[float | None] | None = None) -> npt.NDArray[np.float32]:
-        """Class probabilities ``(len(clouds), k)``; clouds of unequal size run one by one.
-        ``seabed_depths``: per cloud the seabed depth under it (m, NED; None/NaN: unknown)."""
+        """Class probabilities ``(len(clouds), k)``, ``batch_size`` clouds (times :attr:`yaw_views`) per forward
+        pass. ``seabed_depths``: per cloud the seabed depth under it (m, NED; None/NaN: unknown).
+
+        Clouds of unequal size share a pass: each is padded to the longest by repeating its own points
+        (:func:`pad_by_repeating`); the network pools every per-point feature with a maximum, which repeated points
+        leave unchanged, so a cloud's probabilities do not depend on the others in its batch (to float32
+        rounding)."""
         depths = list(seabed_depths) if seabed_depths is not None else [None] * len(clouds)
         if len(depths) != len(clouds):
             raise InvalidCloudError(f"{len(depths)} seabed depths for {len(clouds)} clouds")
         prepared = [self.prepare(c, d) for c, d in zip(clouds, depths, strict=True)]
         out = np.zeros((len(prepared), len(self.class_names)), dtype=np.float32)
         with torch.inference_mode():
-            i = 0
-            while i < len(prepared):
-                n = len(prepared[i])
-                j = i + 1
-                while j < len(prepared) and j - i < batch_size and len(prepared[j]) == n:
-                    j += 1
-                x = turned_views(torch.from_numpy(np.stack(prepared[i:j])).to(self.device), self.yaw_views)
+            for i in range(0, len(prepared), batch_size):
+                chunk = prepared[i:i + batch_size]
+                n = max(len(p) for p in chunk)
+                x = turned_views(torch.from_numpy(np.stack([pad_by_repeating(p, n) for p in chunk])).to(self.device),
+                                 self.yaw_views)
                 prob = torch.softmax(self.model(x)[0].float(), dim=1)
-                out[i:j] = prob.reshape(j - i, self.yaw_views, -1).mean(dim=1).cpu().numpy()
-                i = j
+                out[i:i + len(chunk)] = prob.reshape(len(chunk), self.yaw_views, -1).mean(dim=1).cpu().numpy()
         return out
 
     def decide(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True
