@@ -102,6 +102,47 @@ def _val(model: PointNet, pts: npt.NDArray[np.float32], labels: npt.NDArray[np.i
     return acc, loss
 
 
+
+@dataclass(frozen=True)
+class _Augmenting:
+    """What the augmentation of one training batch needs besides the batch: the normalisation (fixed scale,
+    seabed-referenced z), the clutter pool and the clutter label."""
+
+    fixed: bool
+    keep_z: bool
+    pool: npt.NDArray[np.float32] | None
+    clutter_label: int
+
+
+def _train_epoch(model: PointNet, opt: torch.optim.Optimizer, sched: torch.optim.lr_scheduler.LRScheduler,
+                 data: CloudSet, cfg: TrainConfig, order: npt.NDArray[np.int64], aug: _Augmenting,
+                 rng: np.random.Generator, device: torch.device) -> tuple[float, int, int]:
+    """One pass over the training clouds in ``order``: (summed loss, correct, clouds seen)."""
+    tot_loss, tot_ok, seen = 0.0, 0, 0
+    for s in range(0, len(order), cfg.batch_size):
+        batch = order[s:s + cfg.batch_size]
+        if len(batch) < 2:  # batch norm needs two samples
+            continue
+        pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng), aug.fixed, aug.keep_z)
+        pts = augment_batch(pts, rng, cfg.augment, aug.fixed, aug.keep_z, aug.pool,
+                            data.labels[batch] != aug.clutter_label,
+                            None if data.measured is None else data.measured[batch])
+        x = torch.from_numpy(pts).to(device)
+        y = torch.from_numpy(data.labels[batch]).to(device)
+        logits, trans = model(x)
+        loss = nn.functional.cross_entropy(logits, y, label_smoothing=cfg.label_smoothing)
+        if trans is not None and cfg.reg_weight > 0:
+            loss = loss + cfg.reg_weight * orthogonality_loss(trans)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        sched.step()
+        tot_loss += loss.item() * len(batch)
+        tot_ok += int((logits.argmax(1) == y).sum().item())
+        seen += len(batch)
+    return tot_loss, tot_ok, seen
+
+
 def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
           device: torch.device | None = None) -> TrainResult:
     """Train a PointNet on ``data``; returns the best model (by validation accuracy)."""
@@ -136,27 +177,8 @@ def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
     for epoch in bar:
         model.train()
         order = tr_idx[rng.permutation(len(tr_idx))]
-        tot_loss, tot_ok, seen = 0.0, 0, 0
-        for s in range(0, len(order), cfg.batch_size):
-            batch = order[s:s + cfg.batch_size]
-            if len(batch) < 2:  # batch norm needs two samples
-                continue
-            pts = normalize_batch(subsample(data.points[batch], cfg.n_points, rng), fixed, keep_z)
-            pts = augment_batch(pts, rng, cfg.augment, fixed, keep_z, pool, data.labels[batch] != clutter_label,
-                                None if data.measured is None else data.measured[batch])
-            x = torch.from_numpy(pts).to(device)
-            y = torch.from_numpy(data.labels[batch]).to(device)
-            logits, trans = model(x)
-            loss = nn.functional.cross_entropy(logits, y, label_smoothing=cfg.label_smoothing)
-            if trans is not None and cfg.reg_weight > 0:
-                loss = loss + cfg.reg_weight * orthogonality_loss(trans)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            sched.step()
-            tot_loss += loss.item() * len(batch)
-            tot_ok += int((logits.argmax(1) == y).sum().item())
-            seen += len(batch)
+        augmenting = _Augmenting(fixed, keep_z, pool, clutter_label)
+        tot_loss, tot_ok, seen = _train_epoch(model, opt, sched, data, cfg, order, augmenting, rng, device)
         va_acc, va_loss = _val(model, va_pts, va_lab, device)
         row = {"epoch": epoch + 1, "train_loss": tot_loss / max(seen, 1), "train_acc": tot_ok / max(seen, 1),
                "val_loss": va_loss, "val_acc": va_acc, "lr": sched.get_last_lr()[0],
