@@ -41,7 +41,7 @@ from scipy.spatial.transform import Rotation
 
 from auvlink.sim.acoustics import PROFILES, AcousticsTable
 from auvlink.sim.scene import Scene, load_default_scene
-from auvlink.sim.sonar_geometry import SonarGeometry
+from auvlink.sim.sonar_geometry import RayFan
 from auvlink.sim.sonar_render import OBJECT, SonarRenderer
 from auvlink.sim.trajectory import LawnmowerTrajectory
 
@@ -148,7 +148,7 @@ def _bins_sweep(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]], re
     rows = []
     for nb in (128, 256, 512, 1024):
         rd = SonarRenderer(scene)
-        rd.geometry = SonarGeometry(scene.sonar, rd.geometry.k, n_bins=nb)
+        rd.geometry = RayFan(scene.sonar, rd.geometry.k, n_bins=nb)
         g = rd.geometry
         near = _nearest_object(rd, pos, mats)
         both = np.isfinite(ref) & np.isfinite(near)

@@ -14,7 +14,7 @@ from scipy.ndimage import gaussian_filter
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey, load_default_scene
-from auvlink.sim.sonar_geometry import SonarGeometry
+from auvlink.sim.sonar_geometry import RayFan
 from auvlink.sim.sonar_render import MISS, OBJECT, SEABED, SonarRenderer, frame_rng
 from auvlink.sim.speckle import AcousticModel
 from auvlink.sim.trajectory import LawnmowerTrajectory
@@ -215,7 +215,7 @@ def test_quantize_is_log_and_monotone() -> None:
 
 
 def test_geometry_conventions() -> None:
-    g = SonarGeometry(SonarConfig(tilt_deg=30.0, window_start=1.0, window_length=10.0, fps=10.0,
+    g = RayFan(SonarConfig(tilt_deg=30.0, window_start=1.0, window_length=10.0, fps=10.0,
                                   lever_arm=(0.5, 0.0, 0.2)), rays_per_beam=8)
     np.testing.assert_allclose(np.linalg.norm(g.dir_s, axis=1), 1.0)
     assert g.elevation[-1] == pytest.approx(math.radians(7.0))

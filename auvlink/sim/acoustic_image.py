@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 from scipy import special
 
 from auvlink.sim.acoustics import Acoustics
-from auvlink.sim.sonar_geometry import SonarGeometry
+from auvlink.sim.sonar_geometry import RayFan
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -149,7 +149,7 @@ def tapered_pattern(shape: str, width: float, phi: F64, extent: float) -> F64:
 class AcousticImager:
     """Builds a frame's image from its sample hits under one realistic :class:`Acoustics`."""
 
-    def __init__(self, params: Acoustics, geometry: SonarGeometry, seed: int) -> None:
+    def __init__(self, params: Acoustics, geometry: RayFan, seed: int) -> None:
         self.p, self.g = params, geometry
         g = geometry
         width = math.radians(params.vertical_width_deg)

@@ -138,6 +138,3 @@ class RayFan:
                 rays.append(kk * self.n_beams + nn + lo)
         return objects, rays
 
-
-#: the name the renderers import (:mod:`auvlink.sim.sonar_render`, :mod:`auvlink.sim.acoustic_image`)
-SonarGeometry = RayFan

@@ -41,7 +41,7 @@ from auvlink.sim.acoustics import Acoustics, resolve
 from auvlink.sim.object_meshes import bounding_sphere, class_material, object_pose, placed_mesh
 from auvlink.sim.scene import Scene, SonarConfig
 from auvlink.sim.seabed import SeabedSurface
-from auvlink.sim.sonar_geometry import SonarGeometry
+from auvlink.sim.sonar_geometry import RayFan
 from auvlink.sim.speckle import AcousticModel
 
 F64 = NDArray[np.float64]
@@ -95,9 +95,9 @@ class SonarRenderer:
         self.acoustics = resolve(scene.acoustics)
         self.imager: AcousticImager | None = None
         if self.acoustics is None:
-            self.geometry = SonarGeometry(scene.sonar, rays_per_beam)
+            self.geometry = RayFan(scene.sonar, rays_per_beam)
         else:
-            self.geometry = SonarGeometry(sampled_aperture(scene.sonar, self.acoustics), rays_per_beam)
+            self.geometry = RayFan(sampled_aperture(scene.sonar, self.acoustics), rays_per_beam)
             self.imager = AcousticImager(self.acoustics, self.geometry, scene.seed)
         n_obj = len(scene.objects)
         self.centres, self.radii = np.zeros((n_obj, 3)), np.zeros(n_obj)
