@@ -32,15 +32,15 @@ def run(args: argparse.Namespace) -> int:
     fmt = formats.get(args.format)
     out = sys.stdout
     n_records = 0
-    ends: list[object] = []  # the first and the last record, for --json
+    first: object = None  # the first and the last record, for --json
+    last: object = None
 
     def emit(record: object) -> None:
-        nonlocal n_records
+        nonlocal n_records, first, last
         n_records += 1
-        if args.json:
-            ends[1:] = [record] if ends else []
-            if not ends:
-                ends.append(record)
+        if n_records == 1:
+            first = record
+        last = record
         if args.jsonl:
             out.write(dumps(_as_json(fmt, record)) + "\n")
 
@@ -52,9 +52,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"auvlink decode: ... and {more} more problems", file=sys.stderr)
     if args.json:
         summary = result.summary()
-        if ends:
-            summary["first_record"] = _as_json(fmt, ends[0])
-            summary["last_record"] = _as_json(fmt, ends[-1])
+        if n_records:
+            summary["first_record"] = _as_json(fmt, first)
+            summary["last_record"] = _as_json(fmt, last)
         out.write(dumps(summary) + "\n")
     elif not args.jsonl:
         out.write(result.human_summary() + "\n")
