@@ -173,6 +173,7 @@ def process_mission(task: MissionTask, digest: str) -> dict[str, Any]:
     """Replay the log into the mission folder (the files of ``auvlink replay``) plus ``batch.json``."""
     from auvlink.atomic import atomic_dir
     from auvlink.config import load_config
+    from auvlink.pipeline.object_labels import TORCH_THREADS
     from auvlink.pipeline.outputs import write_outputs
     from auvlink.pipeline.process import run_log
     from auvlink.pipeline.report import write_report
@@ -186,7 +187,8 @@ def process_mission(task: MissionTask, digest: str) -> dict[str, Any]:
             raise AuvlinkError(f"{log}: no readable message ({reader.loss.describe()})")
     vehicle = load_config(Path(task.config)) if task.config is not None else None
     model = Path(task.model) if task.model is not None else None
-    result = run_log(log, model=model, classify=task.classify, progress=False, config=vehicle)
+    result = run_log(log, model=model, classify=task.classify, progress=False, config=vehicle,
+                     torch_threads=TORCH_THREADS["batch"])
     with atomic_dir(folder) as tmp:
         summary = write_outputs(result, tmp)
         if task.report:

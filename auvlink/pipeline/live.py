@@ -38,7 +38,7 @@ from auvlink.pipeline.events import EventFolder
 from auvlink.pipeline.fan_frames import FanRecorder
 from auvlink.pipeline.log_meta import LIVE_META
 from auvlink.pipeline.nav_inputs import SONAR_FORMATS
-from auvlink.pipeline.object_labels import ObjectLabeller
+from auvlink.pipeline.object_labels import TORCH_THREADS, ObjectLabeller
 from auvlink.pipeline.outputs import DetectionStream, check_ply_frame, write_outputs
 from auvlink.pipeline.ports import EVENT_SCHEMA, EVENT_SCHEMA_NAME, EVENT_TOPIC, PortReader
 from auvlink.pipeline.process import result_of
@@ -135,7 +135,8 @@ class LiveRun:
 
         t0_ns = now_ns()
         fans = FanRecorder()
-        engine = Engine(setup, self.engine_config, t0_ns=t0_ns, labeller=ObjectLabeller(self.classify, self.model),
+        engine = Engine(setup, self.engine_config, t0_ns=t0_ns, labeller=ObjectLabeller(self.classify, self.model,
+                                                                          torch_threads=TORCH_THREADS["live"]),
                         hooks=EngineHooks(on_detection=on_detection, on_frames=fans, clock=now_ns))
         log = MissionLogWriter(self.log_path, compression=self.compression)  # LogError: one clear line
         self._log = log

@@ -12,6 +12,8 @@ before that. Nothing is classified twice for the same points: the class probabil
 content (a BLAKE2 digest of its float64 points and its seabed depth, :func:`cloud_key`), so an emission whose
 cloud did not change reuses them (:attr:`ObjectLabeller.forward_clouds` counts the clouds run through the network,
 :attr:`ObjectLabeller.cache_hits` the reused ones).
+PyTorch's threads are set for the process's role when the classifier loads (:data:`TORCH_THREADS`, passed by
+whoever knows the role: replay, live, a batch or evaluation worker).
 :func:`make_detection` turns a finalized object and its class into the :class:`Detection` handed on.
 """
 
@@ -32,6 +34,12 @@ from recon.cluster import DetectedObject
 if TYPE_CHECKING:
     from classify.infer import Classifier
 
+#: PyTorch intra-op threads per process role. One everywhere: a poll's forward pass is small (<= 16 clouds x 4 views
+#: x 256 points), so a second thread mostly waits, and it competes with the rest of the process and, in a batch or
+#: evaluation, with the other workers (demo clouds, this 2-core machine under load 3.5: 8 clouds in 0.21 s on one
+#: thread, 0.63-2.0 s on two; notes/replay_speed). Live: the frame path must not wait for a classification.
+TORCH_THREADS = {"replay": 1, "live": 1, "batch": 1}
+
 
 def cloud_key(points: npt.ArrayLike, seabed_depth: float) -> bytes:
     """A digest of a cloud's points (float64, C order, with its shape) and its seabed depth (m): equal keys, equal
@@ -46,10 +54,14 @@ def cloud_key(points: npt.ArrayLike, seabed_depth: float) -> bytes:
 
 class ObjectLabeller:
     """``enabled`` False: every object is ``unknown`` (no classifier). ``clutter_threshold`` replaces the
-    checkpoint's (None: the checkpoint's; ``math.inf``: nothing is called clutter)."""
+    checkpoint's (None: the checkpoint's; ``math.inf``: nothing is called clutter). ``torch_threads``: PyTorch's
+    intra-op threads, set when the classifier loads (the process's role, :data:`TORCH_THREADS`; None: left as
+    they are)."""
 
-    def __init__(self, enabled: bool, model: Path | None, clutter_threshold: float | None = None) -> None:
+    def __init__(self, enabled: bool, model: Path | None, clutter_threshold: float | None = None,
+                 torch_threads: int | None = None) -> None:
         self.enabled, self.model, self.clutter_threshold = enabled, model, clutter_threshold
+        self.torch_threads = torch_threads
         self.classifier: Classifier | None = None
         self.clutter: set[int] = set()  # ids of the clusters called clutter (not reported)
         #: (object id, probability of clutter) of every classification, in order: an id appears once per emission
@@ -61,8 +73,12 @@ class ObjectLabeller:
     def load(self) -> None:
         """Load the classifier now (live does it before opening the ports)."""
         if self.enabled and self.classifier is None:
+            import torch
+
             from classify.infer import Classifier  # lazy: PyTorch loads only when a run classifies
 
+            if self.torch_threads is not None:
+                torch.set_num_threads(self.torch_threads)
             self.classifier = Classifier.load(self.model)
             if self.clutter_threshold is not None:
                 self.classifier.clutter_threshold = float(self.clutter_threshold)

@@ -22,7 +22,7 @@ from auvlink.pipeline.engine_hooks import EngineHooks
 from auvlink.pipeline.fan_frames import FanRecorder
 from auvlink.pipeline.log_meta import live_settings
 from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
-from auvlink.pipeline.object_labels import ObjectLabeller
+from auvlink.pipeline.object_labels import TORCH_THREADS, ObjectLabeller
 from auvlink.pipeline.results import Detection, FanFrame, MissionResult
 from auvlink.pipeline.setup import MissionSetup
 from auvlink.progress import progress_bar
@@ -57,7 +57,8 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
             progress: bool = True, recon_config: ReconConfig | None = None,
             engine_config: EngineConfig | None = None,
             on_detection: Callable[[Detection], None] | None = None,
-            config: VehicleConfig | None = None, clutter_threshold: float | None = None) -> MissionResult:
+            config: VehicleConfig | None = None, clutter_threshold: float | None = None,
+            torch_threads: int | None = TORCH_THREADS["replay"]) -> MissionResult:
     """The streaming engine on a log (``auvlink replay``): the same engine as ``auvlink live``.
 
     A log written by ``auvlink live`` carries the live engine settings and time origin; they are
@@ -65,7 +66,9 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     (``--config``) replaces the vehicle configuration the log stores; a stored configuration that
     fails validation is replaced by the defaults with one warning line on stderr. ``clutter_threshold``
     replaces the checkpoint's (``math.inf``: no cluster is called clutter; the result's ``clutter_scores`` keep
-    every classification's probability of clutter, :mod:`auvlink.evaluation.clutter_sweep`).
+    every classification's probability of clutter, :mod:`auvlink.evaluation.clutter_sweep`). ``torch_threads``:
+    PyTorch's threads for the classifier (default: replay's, :data:`~auvlink.pipeline.object_labels.TORCH_THREADS`;
+    a batch worker passes its own; None: left as they are).
     """
     t_start = time.perf_counter()
     with MissionLogReader(log) as reader:
@@ -77,7 +80,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     cfg = engine_config or live_cfg or EngineConfig(frame_block=FRAME_BLOCK)
     fans = FanRecorder()
     engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config,
-                    labeller=ObjectLabeller(classify, model, clutter_threshold),
+                    labeller=ObjectLabeller(classify, model, clutter_threshold, torch_threads),
                     hooks=EngineHooks(on_detection=on_detection, on_frames=fans))
     # no warm-up: PyTorch loads at the first classification and Open3D at the first clustering, off the path to
     # the first frame (start_up_s: from this call to the first frames processed)
