@@ -30,6 +30,7 @@ import recon
 from auvlink import sim
 from auvlink.pipeline.engine_config import default_recon_config
 from auvlink.progress import progress_bar
+from auvlink.sim.acoustics import AcousticsTable, ProfileName
 from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng
 from classify.infer import Classifier
@@ -58,6 +59,8 @@ class PassSettings:
     seed: int = 7
     highlight_k: float | None = None  # override of recon's highlight threshold factor (None: its default)
     carve_front_slope: bool | None = None  # override of recon's front-slope carving (None: its default)
+    acoustics: ProfileName = "ideal"  # the sonar profile the frames are rendered with (auvlink.sim.acoustics.PROFILES)
+    calibrate: bool | None = None  # override of recon's calibration from the frames (None: its default)
 
 
 @dataclass(frozen=True)
@@ -83,7 +86,8 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
     scene = Scene(seed=seed, seabed=Seabed(depth=s.depth_m, roughness=s.roughness_m),
                   objects=(SceneObject(class_name, 0.0, 0.0, heading_deg),),
                   survey=Survey(line_length=s.run_in + s.run_out, line_spacing=3.5, lines=1, altitude=altitude,
-                                speed=s.speed), sonar=sonar)
+                                speed=s.speed), sonar=sonar,
+                  acoustics=None if s.acoustics == "ideal" else AcousticsTable(profile=s.acoustics))
     renderer = SonarRenderer(scene)
     n = int((s.run_in + s.run_out) / s.speed * s.fps) + 1
     t = np.arange(n) / s.fps
@@ -97,6 +101,8 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
         config = replace(config, highlight=replace(config.highlight, k=s.highlight_k))
     if s.carve_front_slope is not None:
         config = replace(config, front_slope=s.carve_front_slope)
+    if s.calibrate is not None:
+        config = replace(config, calibrate=s.calibrate)
     rec = Reconstructor(geom, traj, config)
     for i in range(n):
         rec.add_frame(float(t[i]), renderer.render(pos[i], 0.0, 0.0, 0.0, frame_rng(seed, i)))

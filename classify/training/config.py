@@ -45,6 +45,11 @@ _BOUNDS.update({
     "tilts_deg": ("gt", 0.0, 90.0), "noise_fraction": (0.0, 1.0), "altitude_m": ("gt", 0.0, 1000.0),
     "fused_passes": (1, 10), "clutter_lines": (1, 100), "object_patch_lines": (1, 100), "scale": ("gt", 0.0, 10.0),
     "jitter_sigma": (0.0, 10.0), "jitter_clip": (0.0, 10.0),
+    "dr_prob": (0.0, 1.0), "dr_nominal_edge_prob": (0.0, 1.0), "dr_edge_error_deg": (0.0, 20.0),
+    "dr_speckle_looks": (0.0, 64.0), "dr_pattern_weights": (0.0, 1000.0), "dr_extent": (1.0, 4.0),
+    "dr_edge_level_db": (-60.0, 0.0), "dr_azimuth_width_beams": ("gt", 0.0, 4.0), "dr_sidelobe_db": (-80.0, -5.0),
+    "dr_pulse_bins": (1, 20), "dr_threshold_db": (-30.0, 30.0), "dr_tvg_db_per_m": (-10.0, 10.0),
+    "dr_seabed_bias_m": (-2.0, 2.0),
 })
 #: the words a text setting takes (synthesis_settings: any other word silently meant the other mode)
 _CHOICES: dict[str, tuple[str, ...]] = {"mode": ("paper", "scan"), "detect": ("cos", "energy"),

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from classify.training.scan_acoustics import draw_acoustics, ray_elevations, ray_weights, tvg_gain
 from classify.training.synthesis_settings import SynthesisSettings
 from recon.front_slope import replace_on_arcs
 from recon.range_arcs import arc_record
@@ -57,10 +58,12 @@ N_BEAMS = 96
 DENSE_MAX = 20_000_000  # energy_first_return: (cells x bins) above this, the sparse search
 
 
-def sonar_rays(heading_rad: float, tilt_rad: float, spread_rad: float, k: int) -> tuple[F64, F64]:
-    """Unit ray directions ``(k, beams, 3)`` (NED, level vehicle) and the steepest ray per beam ``(beams, 3)``."""
+def sonar_rays(heading_rad: float, tilt_rad: float, spread_rad: float, k: int,
+               elevations: F64 | None = None) -> tuple[F64, F64]:
+    """Unit ray directions ``(k, beams, 3)`` (NED, level vehicle) and the steepest ray per beam ``(beams, 3)``;
+    ``elevations`` (rad off the axis, +: down; default ``k`` evenly over ``+-spread / 2``) replaces ``k``."""
     az = np.radians(np.linspace(-HALF_FOV_DEG, HALF_FOV_DEG, N_BEAMS))
-    el = np.linspace(-spread_rad / 2, spread_rad / 2, k)
+    el = np.linspace(-spread_rad / 2, spread_rad / 2, k) if elevations is None else np.asarray(elevations, float)
     ph, th = np.meshgrid(el, az, indexing="ij")
     d_s = np.stack([np.cos(ph) * np.cos(th), np.cos(ph) * np.sin(th), np.sin(ph)], axis=-1)
     ct, st = math.cos(tilt_rad), math.sin(tilt_rad)
@@ -84,7 +87,8 @@ def arc_vectors(heading_rad: float, tilt_rad: float) -> tuple[F64, F64]:
 
 
 def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], threshold: float, bin_m: float,
-                        min_run: int, r0: float = 6.0, span: int = 0) -> F64:
+                        min_run: int, r0: float = 6.0, span: int = 0, leak: tuple[float, ...] = (1.0,),
+                        pulse_bins: int = 1, speckle: tuple[np.random.Generator, float] | None = None) -> F64:
     """Per position and beam ``(P, beams)`` the range of the first bin whose summed return reaches ``threshold``
     with at least ``min_run`` such bins (itself included) among the ``span`` bins from it (recon's rule,
     :func:`recon.highlight.first_returns`; ``span`` <= ``min_run``: consecutive bins); ``inf`` where none does.
@@ -92,27 +96,35 @@ def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], thre
     ``t_hit``, ``cos_a``, ``hit``: ``(P, K, beams)`` per ray. A ray returns ``cos^2 (r0 / r)^2 / K`` (the
     simulator's ``cos^2 / r^2`` per ray, a beam of K rays at normal incidence at ``r0`` summing to 1)
     into its range bin. A grazing hit on a rounded top, alone in its bin, stays below the threshold;
-    a face that many rays strike at nearly one range passes.
+    a face that many rays strike at nearly one range passes. ``leak``: the energy each beam also receives from
+    the beams ``-L..+L`` off (:func:`classify.training.scan_acoustics.beam_leak`); ``pulse_bins``: each bin's
+    energy spread evenly over it and the next ``pulse_bins - 1``; ``speckle``: (generator, looks), each (beam, bin)
+    times a unit-mean gamma of that many looks (pulse and speckle: the dense search only).
     """
-    p_n, k, n_beams = t_hit.shape
+    p_n, _, n_beams = t_hit.shape
     out = np.full((p_n, n_beams), np.inf)
-    pi, bi, ki = np.nonzero(hit.transpose(0, 2, 1))  # ordered by cell (position, beam)
-    if pi.size == 0:
+    cell, b, e = _ray_returns(t_hit, cos_a, hit, bin_m, r0, leak)
+    if cell.size == 0:
         return out
-    t = t_hit[pi, ki, bi]
-    e = cos_a[pi, ki, bi] ** 2 * (r0 / t) ** 2 / k
-    b = np.floor(t / bin_m).astype(np.int64)
-    cell = pi * n_beams + bi
     starts = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
     ci = np.cumsum(np.r_[False, cell[1:] != cell[:-1]])  # index of each ray's cell among the cells hit
     b0 = np.minimum.reduceat(b, starts)
     off = b - b0[ci]
     run = max(1, min_run)
     span = max(run, span)
-    width = int(off.max()) + run
+    width = int(off.max()) + run + max(pulse_bins, 1) - 1
     if starts.size * width > DENSE_MAX:  # rays spread over a long range: bins of the sparse (cell, bin) keys
         return _first_run_sparse(out, cell, b, e, threshold, bin_m, run, span)
-    enough = np.bincount(ci * width + off, weights=e, minlength=starts.size * width).reshape(-1, width) >= threshold
+    energy: F64 = np.asarray(np.bincount(ci * width + off, weights=e, minlength=starts.size * width),
+                             dtype=np.float64).reshape(-1, width)
+    if pulse_bins > 1:  # the echo of a bin spread over [r, r + pulse]
+        spread = energy / pulse_bins
+        for d in range(1, pulse_bins):
+            spread[:, d:] += energy[:, :-d] / pulse_bins
+        energy = spread
+    if speckle is not None and speckle[1] > 0:
+        energy = energy * speckle[0].gamma(speckle[1], 1.0 / speckle[1], energy.shape)
+    enough = energy >= threshold
     count = enough.astype(np.int32)
     for d in range(1, min(span, width)):  # bins b .. b + span - 1 holding enough
         count[:, : width - d] += enough[:, d:]
@@ -122,6 +134,26 @@ def energy_first_return(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], thre
     first = b0[found] + np.argmax(ok[found], axis=1)
     out.reshape(-1)[cell[starts[found]]] = first * bin_m + 0.5 * bin_m
     return out
+
+
+def _ray_returns(t_hit: F64, cos_a: F64, hit: npt.NDArray[np.bool_], bin_m: float, r0: float,
+                 leak: tuple[float, ...]) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], F64]:
+    """Every hit ray's cell ``position * beams + beam``, range bin and energy ``cos^2 (r0 / r)^2 / K``, ordered by
+    cell; with ``leak`` (more than one weight) also its copies into the neighbouring beams, scaled by their weight."""
+    _, k, n_beams = t_hit.shape
+    pi, bi, ki = np.nonzero(hit.transpose(0, 2, 1))  # ordered by cell (position, beam)
+    t = t_hit[pi, ki, bi]
+    e = cos_a[pi, ki, bi] ** 2 * (r0 / np.maximum(t, 1e-6)) ** 2 / k
+    b = np.floor(t / bin_m).astype(np.int64)
+    if len(leak) <= 1 or pi.size == 0:
+        return pi * n_beams + bi, b, e
+    half = len(leak) // 2
+    parts = [(pi, bi + o, b, e * leak[o + half]) for o in range(-half, half + 1) if leak[o + half] > 0]
+    pa, ba, bb, ea = (np.concatenate(x) for x in zip(*parts, strict=True))
+    inside = (ba >= 0) & (ba < n_beams)
+    cell = (pa * n_beams + ba)[inside]
+    order = np.argsort(cell, kind="stable")
+    return cell[order], bb[inside][order], ea[inside][order]
 
 
 def _first_run_sparse(out: F64, cell: npt.NDArray[np.int64], b: npt.NDArray[np.int64], e: F64, threshold: float,
@@ -158,24 +190,27 @@ def partial_pass(xs: F64, lateral: float, alt: float, elevation: float, radius: 
 
 def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, settings: SynthesisSettings,
                 rng: np.random.Generator, *, altitude: float | None = None, partial: bool = False) -> F64:
-    """Highlight-extension points (metres, object frame NED, seabed at ``z = 0``) of one pass.
+    """Highlight-extension points (metres, object frame NED, seabed at ``z = 0``) of one pass, under acoustic
+    conditions drawn by :func:`classify.training.scan_acoustics.draw_acoustics` (the idealized sonar unless
+    ``settings.dr_prob`` > 0): the points lie on the ray at the drawn effective lower edge.
 
     ``altitude`` (m): that of the pass (None: drawn from ``settings.altitude_m``). ``partial``: the pass sees
     only part of the object (:func:`partial_pass`)."""
-    import open3d as o3d  # lazy: Open3D loads only when clouds are synthesized (not for inference)
-
     spread = math.radians(settings.spread_deg)
     alt = float(rng.uniform(*settings.altitude_m)) if altitude is None else float(altitude)
     lateral = float(rng.uniform(*settings.lateral_m))
     c_min = float(rng.uniform(*settings.min_cos))
     min_h = float(rng.uniform(*settings.min_height_m))
     bias = float(rng.uniform(*settings.range_bias_m))
-    d, steep = sonar_rays(heading_rad, tilt_rad, spread, settings.rays_per_beam)
+    ac = draw_acoustics(settings, spread, rng)
+    elevations = None if ac.ideal else ray_elevations(ac, spread, settings.rays_per_beam)
+    d, _ = sonar_rays(heading_rad, tilt_rad, spread, settings.rays_per_beam, elevations)
+    steep = sonar_rays(heading_rad, tilt_rad, spread, 1, np.array([ac.edge_rad]))[0][0]  # where recon places
     u = np.array([math.cos(heading_rad), math.sin(heading_rad), 0.0])
     w = np.array([-math.sin(heading_rad), math.cos(heading_rad), 0.0])
     radius = float(np.linalg.norm(vertices[:, :2], axis=1).max())
-    e = tilt_rad + spread / 2
-    # from where the steepest ray meets the seabed a little beyond the object, to past the object
+    e = tilt_rad + ac.edge_rad
+    # from where the placement ray meets the seabed a little beyond the object, to past the object
     xs = np.arange(-(alt / math.tan(e) + radius + 1.0), radius + 0.5, settings.step_m)
     xs = xs + rng.uniform(0.0, settings.step_m)
     if partial:
@@ -183,35 +218,57 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
         if xs.size == 0:
             return np.zeros((0, 3))
     origins = xs[:, None] * u + lateral * w + np.array([0.0, 0.0, -alt])
-    n_pos, k = len(xs), d.shape[0]
-    rays = np.empty((n_pos, k, N_BEAMS, 6), dtype=np.float32)
-    rays[..., :3] = origins[:, None, None, :]
-    rays[..., 3:] = d[None]
-    ans = scene.cast_rays(o3d.core.Tensor.from_numpy(rays.reshape(-1, 6)))
-    t_hit = ans["t_hit"].numpy().astype(np.float64).reshape(n_pos, k, N_BEAMS)
-    cos_a = np.abs((ans["primitive_normals"].numpy().reshape(n_pos, k, N_BEAMS, 3) * d[None]).sum(axis=-1))
+    t_hit, cos_a = _cast(scene, origins, d)
     with np.errstate(divide="ignore"):
         r_sea = np.where(d[..., 2] > 0, alt / d[..., 2], np.inf)  # (k, beams): flat seabed, level vehicle
     if settings.cos_jitter > 0:  # speckle: a return near the threshold passes or fails at random
         cos_a = cos_a * np.exp(settings.cos_jitter * rng.standard_normal(cos_a.shape))
     if settings.detect == "energy":
         hit = np.isfinite(t_hit) & (t_hit < r_sea[None])
-        first = energy_first_return(t_hit, cos_a, hit, float(rng.uniform(*settings.energy_threshold)),
-                                    settings.bin_m, settings.min_run, span=settings.span_bins) + bias
+        if not ac.ideal:  # each ray's share of the beam pattern and the TVG error, folded into its cos^2
+            share = ray_weights(ac, spread, np.asarray(elevations)) * d.shape[0]
+            cos_a = cos_a * np.sqrt(share[None, :, None] * tvg_gain(ac, t_hit))
+        threshold = float(rng.uniform(*settings.energy_threshold)) * ac.threshold_factor
+        first = energy_first_return(t_hit, cos_a, hit, threshold, settings.bin_m, settings.min_run,
+                                    span=settings.span_bins, leak=ac.leak, pulse_bins=ac.pulse_bins,
+                                    speckle=(rng, ac.speckle_looks) if ac.speckle_looks > 0 else None) + bias
     else:
         hit = np.isfinite(t_hit) & (t_hit < r_sea[None]) & (cos_a >= c_min)
         first = np.where(hit, t_hit, np.inf).min(axis=1) + bias  # (positions, beams)
-    onset = r_sea.min(axis=0)  # the steepest ray's seabed range per beam
+    onset = alt / steep[:, 2]  # the placement ray's seabed range per beam
     ok = first < onset[None] - settings.onset_margin_m
     pi, bi = np.nonzero(ok)
     r = first[pi, bi] + rng.normal(0.0, settings.range_sigma_m, size=len(pi))
     pts = origins[pi] + r[:, None] * steep[bi]
-    keep = -pts[:, 2] >= min_h
+    keep = ac.seabed_bias_m - pts[:, 2] >= min_h  # recon's seabed removal, above its seabed
+    lift = np.array([0.0, 0.0, ac.seabed_bias_m])  # heights above recon's seabed (fitted that much deeper)
     if settings.correction == "none" or not keep.any():
-        return np.asarray(pts[keep])
+        return np.asarray(pts[keep] - lift)
+    return _corrected(pts[keep], origins[pi[keep]], bi[keep], r[keep], heading_rad, tilt_rad, spread,
+                      settings, rng) - lift
+
+
+def _cast(scene: Any, origins: F64, d: F64) -> tuple[F64, F64]:
+    """Range ``t_hit`` and ``|cos|`` of the incidence ``(positions, K, beams)`` of rays ``d`` ``(K, beams, 3)`` from
+    every origin ``(positions, 3)`` against the mesh (Open3D); ``inf`` where a ray misses."""
+    import open3d as o3d  # lazy: Open3D loads only when clouds are synthesized (not for inference)
+
+    n_pos, k = len(origins), d.shape[0]
+    rays = np.empty((n_pos, k, N_BEAMS, 6), dtype=np.float32)
+    rays[..., :3] = origins[:, None, None, :]
+    rays[..., 3:] = d[None]
+    ans = scene.cast_rays(o3d.core.Tensor.from_numpy(rays.reshape(-1, 6)))
+    t_hit = ans["t_hit"].numpy().astype(np.float64).reshape(n_pos, k, N_BEAMS)
+    cos_a = np.abs((ans["primitive_normals"].numpy().reshape(n_pos, k, N_BEAMS, 3) * d[None]).sum(axis=-1))
+    return t_hit, cos_a
+
+
+def _corrected(pts: F64, origins: F64, beams: npt.NDArray[np.int64], r: F64, heading_rad: float, tilt_rad: float,
+               spread: float, settings: SynthesisSettings, rng: np.random.Generator) -> F64:
+    """Recon's front-slope correction (:func:`recon.front_slope.replace_on_arcs`, the nominal fan of ``spread``
+    rad, as recon's), a fraction drawn from ``settings.correction_blend`` of each move applied."""
     u, w_vec = arc_vectors(heading_rad, tilt_rad)
-    pi, bi, r = pi[keep], bi[keep], r[keep]
-    arcs = arc_record(origins[pi], u[bi], np.broadcast_to(w_vec, (len(pi), 3)), r)
-    fixed = replace_on_arcs(pts[keep], arcs, spread, settings.correction_length_m, settings.correction_width_m)
+    arcs = arc_record(origins, u[beams], np.broadcast_to(w_vec, (len(pts), 3)), r)
+    fixed = replace_on_arcs(pts, arcs, spread, settings.correction_length_m, settings.correction_width_m)
     blend = float(rng.uniform(*settings.correction_blend))  # recon's correction is partial on real frames
-    return np.asarray(pts[keep] + blend * (fixed - pts[keep]), dtype=np.float64)
+    return np.asarray(pts + blend * (fixed - pts), dtype=np.float64)

@@ -94,6 +94,25 @@ class SynthesisSettings:
     object_patch_lead_m: float = 4.0  # m: each line starts with its onset this far before the object
     object_patch_offset_m: float = 1.0  # m: a cluster centred farther from the object is not a view of it
 
+    # domain randomization of mode "scan" (classify.training.scan_acoustics): a fraction dr_prob of the passes is
+    # drawn over the acoustic space of issue 36 (the rest: the idealized sonar); each range's source:
+    dr_prob: float = 0.0
+    dr_pattern_weights: tuple[float, ...] = (1.0, 1.0, 1.0)  # uniform, gaussian, sinc2: auvlink.sim.acoustics shapes
+    dr_extent: tuple[float, float] = (1.0, 4.0)  # x the -3 dB width: the scene schema's vertical_extent range
+    dr_edge_level_db: tuple[float, float] = (-25.0, -8.0)  # recon.beam_edge's half-step of a 16-50 dB seabed contrast
+    dr_edge_error_deg: float = 1.5  # sigma: frame-to-frame spread of recon.beam_edge's running median (assumed)
+    dr_nominal_edge_prob: float = 0.2  # recon without calibration (ReconConfig.calibrate off) places on +s/2
+    dr_azimuth_width_beams: tuple[float, float] = (0.8, 1.0)  # ARIS 3000 / DIDSON, ARIS 1800 data sheets
+    dr_sidelobe_db: tuple[float, float] = (-35.0, -15.0)  # issue 36: sidelobe level -15 to -35 dB
+    dr_pulse_bins: tuple[float, float] = (1.0, 4.0)  # issue 36: pulse 1-4 range bins
+    # issue 36's gain +-10 dB and noise floor, as far as recon's image-statistics thresholds (recon.water_threshold)
+    # leave them: assumed +-6 dB on the detection threshold
+    dr_threshold_db: tuple[float, float] = (-6.0, 6.0)
+    dr_tvg_db_per_m: tuple[float, float] = (-1.0, 1.0)  # half the eval's +-2 dB/m: recon's per-row thresholds
+    # recon's seabed fitted under an object, realistic profiles: 0.56 m deep (sphere, didson, calibrated; 0 without)
+    dr_seabed_bias_m: tuple[float, float] = (0.0, 0.6)
+    dr_speckle_looks: float = 2.0  # the profiles' speckle_looks (ARIS sample frames, auvlink.sim.acoustics)
+
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
