@@ -13,9 +13,12 @@ Run: ``auvlink bench e2e --out DIR [--full]`` (or ``python benchmarks/bench_e2e.
    outputs and report), its peak resident set (``wait4`` rusage of that child alone), x real time =
    mission seconds / wall seconds, and its CPU seconds (user + system, all threads: on a machine shared with
    other work the steadier figure). Goal: a 30-minute survey in <= 60 s (>= 30x).
-4. From ``DIR/e2e-replay/summary.json``: the per-stage timings and detection / classification precision and
-   recall against the simulator's ground truth. The summary's format belongs to the pipeline: whatever keys
-   it has are reported (``summary_keys``), numbers are taken where found, nothing is assumed.
+4. From ``DIR/e2e-replay/summary.json``: the per-stage timings (and x real time per stage: mission seconds /
+   stage seconds) and detection / classification precision and recall against the simulator's ground truth.
+   The summary's format belongs to the pipeline: whatever keys it has are reported (``summary_keys``), numbers
+   are taken where found, nothing is assumed.
+5. The profile of the slowest stage: the log replayed once more in a child process with the profiler on in that
+   stage only (``benchmarks/_stage_profile.py``): its top functions by cumulative time.
 
 Quick and full (not smoke) also time ``auvlink demo --out DIR/e2e-demo`` (goal: <= 3 minutes after set-up).
 """
@@ -34,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from _common import smoke, table, write_json
+from _stage_profile import profile_in_child
 
 MINUTES = {"smoke": 0.5, "quick": 5.0, "full": 30.0}
 GOAL_X_REALTIME = 30.0  # 30-minute survey in <= 60 s
@@ -211,6 +215,10 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
         rows.append({"step": "auvlink demo (shipped scene)", "seconds": demo["wall_s"], "cpu_s": demo["cpu_s"],
                      "peak_rss_MB": demo["peak_rss_MB"]})
     print(table(rows, ["step", "seconds", "cpu_s", "x_realtime", "peak_rss_MB"]))
+    profile = profile_in_child(log, timings, work)  # a second replay, profiled in its slowest stage only
+    if profile is not None:
+        print(f"\nprofile of the slowest stage, {profile['stage']} ({profile['profiled_s']:.2f} s profiled):")
+        print(table(profile["top"], ["function", "ncalls", "tottime_s", "cumtime_s"]))
     det_p, det_r = _score(scores, "detection", "precision"), _score(scores, "detection", "recall")
     cls_p, cls_r = _score(scores, "classification", "precision"), _score(scores, "classification", "recall")
     print(f"mission {mission_s:.0f} s ({info['message_count']} messages, {info['size_MB']:.0f} MB log): replay "
@@ -233,7 +241,9 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
         "cpu_s": replay["cpu_s"], "x_realtime_cpu": mission_s / replay["cpu_s"] if replay["cpu_s"] > 0 else None,
         "replay_decode_s": decode_s, "outside_pipeline_timings_s": outside,
         "replay_decode_x_realtime": mission_s / decode_s if decode_s else None,
-        "stage_timings_s": timings, "scores": scores,
+        "stage_timings_s": timings, "stage_x_realtime": {k: mission_s / v for k, v in timings.items()
+                                                         if v > 0 and k not in ("start_up_s", "total_s")},
+        "slowest_stage_profile": profile, "scores": scores,
         "detection_precision": det_p, "detection_recall": det_r,
         "classification_precision": cls_p, "classification_recall": cls_r,
         "detections": summary.get("detections"), "recon": summary.get("recon", {}),
