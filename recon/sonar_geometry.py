@@ -1,4 +1,6 @@
-"""Forward-scan sonar geometry (DIDSON class): beams, range bins, the highlight ray, seabed onset.
+"""Forward-scan sonar geometry: beams, range bins, the highlight ray, seabed onset.
+
+The beams and range lines are those of :class:`auvlink.sonar.SonarDescription` (any count, uneven tables).
 
 Sonar frame S: x boresight, y starboard, z down, mounted in B with a pitch-down tilt t (R_BS =
 Ry(-t)) and a lever arm. A return at range r, azimuth theta (+ starboard), elevation phi (+ down from
@@ -30,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from auvlink.sonar import DEFAULT_SONAR, Sonar
+from auvlink.sonar import DEFAULT_SONAR, DIDSON, Sonar
 from auvlink.sonar import Mounting as DeviceMounting
 from recon.errors import GeometryError
 from recon.frames import Mounting, attitude
@@ -38,11 +40,11 @@ from recon.frames import Mounting, attitude
 F64 = NDArray[np.float64]
 GeometryMode = Literal["exact", "paper"]
 UP_NED = np.array([0.0, 0.0, -1.0])
-#: the DIDSON 300 m's image (data sheet, detection mode): 96 beams over a 29 deg field of view, 512 range samples;
-#: tilt, vertical spread and range window come from the shared description, :data:`auvlink.sonar.DEFAULT_SONAR`
-DIDSON_BEAMS = 96
-DIDSON_BINS = 512
-DIDSON_FOV_DEG = 29.0
+#: the default image: the beams, field of view and samples per beam of :data:`auvlink.sonar.DIDSON` (the DIDSON
+#: 300 m's data sheet); tilt, vertical spread and range window come from :data:`auvlink.sonar.DEFAULT_SONAR`
+DEFAULT_BEAMS = DIDSON.n_beams
+DEFAULT_BINS = DIDSON.range_lines(DEFAULT_SONAR.window_length)
+DEFAULT_FOV_DEG = DIDSON.field_of_view_deg
 
 
 def points_sonar(r: ArrayLike, theta: ArrayLike, phi: ArrayLike) -> F64:
@@ -56,13 +58,13 @@ def points_sonar(r: ArrayLike, theta: ArrayLike, phi: ArrayLike) -> F64:
 class SonarGeometry:
     """Image layout and mounting of the sonar; angles in radians, distances in metres."""
 
-    n_bins: int = DIDSON_BINS
-    n_beams: int = DIDSON_BEAMS
+    n_bins: int = DEFAULT_BINS
+    n_beams: int = DEFAULT_BEAMS
     window_start: float = DEFAULT_SONAR.window_start
     window_length: float = DEFAULT_SONAR.window_length
     tilt: float = DEFAULT_SONAR.tilt
     spread: float = DEFAULT_SONAR.spread
-    fov: float = float(np.deg2rad(DIDSON_FOV_DEG))
+    fov: float = float(np.deg2rad(DEFAULT_FOV_DEG))
     lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
     azimuth_table: tuple[float, ...] | None = None
     #: roll, pitch, yaw (rad) of the sonar's mounting in B, applied before the tilt: R_BS = R(rpy) Ry(-tilt)
@@ -93,17 +95,25 @@ class SonarGeometry:
 
     @classmethod
     def of(cls, sonar: Sonar, mounting: DeviceMounting | None = None, *, azimuths: ArrayLike | None = None,
-           window: tuple[float, float] | None = None) -> SonarGeometry:
+           window: tuple[float, float] | None = None, n_bins: int | None = None) -> SonarGeometry:
         """The geometry of the shared sonar description and its device mounting (lever arm and rpy).
 
-        ``azimuths`` (rad) is the device's beam table and ``window`` (start, length, m) the frames' own
-        range window; both override the description where the frames carry them.
+        ``azimuths`` (rad) is the device's beam table, ``window`` (start, length, m) the frames' own range
+        window and ``n_bins`` their range lines; each overrides the description (:attr:`Sonar.description`: a
+        linear fan by its field of view, an uneven one by its table) where the frames carry it.
         """
         m = mounting or DeviceMounting()
         start, length = window if window is not None else (sonar.window_start, sonar.window_length)
-        table = None if azimuths is None else tuple(float(a) for a in np.asarray(azimuths, dtype=np.float64))
-        return cls(window_start=start, window_length=length, tilt=sonar.tilt, spread=sonar.spread,
-                   lever_arm=m.xyz, azimuth_table=table, mount_rpy=m.rpy)
+        d = sonar.description
+        fov = float(np.deg2rad(d.field_of_view_deg))
+        if azimuths is not None:
+            table: tuple[float, ...] | None = tuple(float(a) for a in np.asarray(azimuths, dtype=np.float64))
+        else:
+            table = None if d.is_linear else d.bearings_rad
+        beams = d.n_beams if table is None else len(table)
+        bins = n_bins if n_bins is not None else d.range_lines(length)
+        return cls(n_bins=bins, n_beams=beams, window_start=start, window_length=length, tilt=sonar.tilt,
+                   spread=sonar.spread, fov=fov, lever_arm=m.xyz, azimuth_table=table, mount_rpy=m.rpy)
 
     @classmethod
     def from_degrees(cls, tilt_deg: float = 30.0, spread_deg: float = 14.0, **kw: object) -> SonarGeometry:

@@ -9,7 +9,7 @@ exactly what an ARIS 1800 sends in a 96-beam ping mode once reordered. It differ
 * The window comes from the header's ``WindowStart`` / ``WindowLength`` floats (metres, DIDSON's
   DDF heritage): row m is at ``WindowStart + m * WindowLength / SamplesPerBeam``. :func:`build`
   also fills ``SampleStartDelay`` / ``SamplePeriod`` (integer microseconds, rounded) for ARIS tools.
-* Beam azimuths are linear: 96 beam centres from -14.5 to +14.5 deg (29 deg field of view, the
+* Beam azimuths are the DIDSON's of :data:`auvlink.sonar.DIDSON` (linear over its field of view, the
   DIDSON fallback model of ARCHITECTURE.md), not the ARIS 1800 beam table.
 * Only 96-beam ping modes (3..5) are accepted; :func:`build` writes ping mode 3.
 
@@ -30,14 +30,17 @@ from auvlink.codecs.aris_lib import ArisFrame, decode_as, encode_frame
 from auvlink.errors import EncodeError
 from auvlink.formats import WireFormat
 from auvlink.framing.aris import DidsonFramer
-from auvlink.framing.aris_defs import FRAME_HEADER_DTYPE, MAX_SAMPLES_PER_BEAM, SIGNATURE_U32
+from auvlink.framing.aris_defs import FRAME_HEADER_DTYPE, MAX_SAMPLES_PER_BEAM, PING_MODE_BEAMS, SIGNATURE_U32
+from auvlink.sonar import DIDSON
 
-BEAMS = 96
-SAMPLES = 512
-HALF_FOV_DEG = 14.5
+#: the ping mode :func:`build` writes (wire: an ARIS 1800 96-beam mode, aris-file-sdk FrameFuncs.c)
 PING_MODE = 3
+#: beams of every frame (wire: the ping mode's beam count, the DIDSON description's beams)
+BEAMS = PING_MODE_BEAMS[PING_MODE]
+if BEAMS != DIDSON.n_beams:
+    raise ImportError(f"didson: ping mode {PING_MODE} sends {BEAMS} beams, the DIDSON description {DIDSON.n_beams}")
 #: azimuth of each image column (rad, + to starboard), column 0 = port-most beam
-AZIMUTHS_RAD: npt.NDArray[np.float64] = np.deg2rad(np.linspace(-HALF_FOV_DEG, HALF_FOV_DEG, BEAMS))
+AZIMUTHS_RAD: npt.NDArray[np.float64] = np.deg2rad(np.asarray(DIDSON.bearings_deg, dtype=np.float64))
 AZIMUTHS_RAD.setflags(write=False)
 _U32_MAX = 0xFFFFFFFF
 

@@ -6,10 +6,11 @@ The space (every value uniform in its range unless said otherwise):
   simulator's own texture model: sinusoids of wavelength 0.5-8 m, :mod:`auvlink.sim.seabed`);
 - vehicle: altitude 3-7 m, speed 0.6-1.5 m/s, survey heading 0-360 deg, a water current up to
   0.1 m/s from any direction (the demo scene has 0.11 m/s);
-- sonar: tilt 20-45 deg (spread 14 deg), 5-15 frames/s, the range window holding the seabed onset
-  for any look direction over the slope, with room before it for a 2 m object's highlight extension;
-- lawnmower: lines spaced at 40-80 % of the swath at the seabed onset (2 R sin 14.5 deg, R the
-  slant range of the onset), 3-5 lines, the line length set by the objects;
+- sonar: tilt 20-45 deg (the DIDSON's fan and vertical spread, :data:`auvlink.sonar.DIDSON`), 5-15
+  frames/s, the range window holding the seabed onset for any look direction over the slope, with room
+  before it for a 2 m object's highlight extension;
+- lawnmower: lines spaced at 40-80 % of the swath at the seabed onset (2 R sin of the half field, R
+  the slant range of the onset), 3-5 lines, the line length set by the objects;
 - objects: 5-8, any class of the catalogue, any heading, centres at least 6 m apart and inside the
   band every line's fan covers (across: between the outer lines' swath centres widened by a quarter
   swath; along: where both line directions look, the onset's horizontal reach inside both ends).
@@ -27,10 +28,11 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from auvlink.sim.scene import CLASSES
+from auvlink.sonar import DIDSON
 
-#: the sonar's half aperture in azimuth (deg) and vertical spread (deg), DIDSON class
-HALF_APERTURE_DEG = 14.5
-SPREAD_DEG = 14.0
+#: the sonar's half aperture in azimuth (deg) and vertical spread (deg): the DIDSON's data sheet (auvlink.sonar)
+HALF_APERTURE_DEG = DIDSON.half_fov_deg
+SPREAD_DEG = DIDSON.vertical_aperture_deg
 LEVER_ARM = (0.6, 0.0, 0.2)  # sonar head in the body frame (FRD, m), as in the shipped scene
 MIN_SEPARATION = 6.0  # m between object centres
 MAX_OBJECT_HEIGHT = 2.0  # m: the window starts early enough for this object's highlight extension
@@ -134,7 +136,7 @@ def draw_survey(seed: int, index: int, small: bool = False) -> SurveyDraw:
     r_flat = onset_range(h, dep)
     swath = 2.0 * r_flat * math.sin(math.radians(HALF_APERTURE_DEG))
     spacing = _u(rng, "spacing_fraction") * swath
-    # the seabed's rise along the line (either direction) and across it (beams at +-14.5 deg)
+    # the seabed's rise along the line (either direction) and across it (beams at +-the half field)
     rise = math.degrees(math.atan(math.tan(math.radians(slope)) * 1.0))
     r_near, r_far = onset_range(h, dep, rise), onset_range(h, dep, -rise)
     margin_before = MAX_OBJECT_HEIGHT / math.sin(math.radians(dep)) + float(rng.uniform(1.0, 3.0))

@@ -2,10 +2,11 @@
 
 Highlight-extension points come only from the steepest ray of each beam (elevation +s/2 in the sonar
 frame), where it meets the seabed: the *onset chord*, a short arc ahead of the vehicle across the
-fan (azimuth -fov/2..+fov/2). An object is seen when that chord passes over it, so a mission's
-covered area is the union of the quadrilaterals swept by the chord between consecutive track poses
-(each the convex hull of two consecutive chords; a shapely union). With the default DIDSON-class
-geometry at 5 m altitude the chord lies about 6.6 m ahead and is about 4.2 m wide.
+fan (azimuth -fov/2..+fov/2, the sonar model's field, :mod:`auvlink.sonar`). An object is seen when
+that chord passes over it, so a mission's covered area is the union of the quadrilaterals swept by the
+chord between consecutive track poses (each the convex hull of two consecutive chords; a shapely
+union). With the default DIDSON-class geometry at 5 m altitude the chord lies about 6.6 m ahead and is
+about 4.2 m wide.
 
 Frames and units: world NED (m); a pose is (north, east) of the vehicle, heading (rad, 0 = north,
 clockwise +) and altitude (m above the seabed). The sonar is placed by its mounting's yaw and pitch
@@ -26,10 +27,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from auvlink.sonar import DIDSON
+
 F64 = NDArray[np.float64]
 
-#: half the horizontal field of view of a DIDSON-class sonar (96 beams over 29 deg)
-DEFAULT_HALF_FOV = math.radians(14.5)
+#: half the horizontal field of view of the default sonar, rad (:data:`auvlink.sonar.DIDSON`)
+DEFAULT_HALF_FOV = math.radians(DIDSON.half_fov_deg)
 CHORD_POINTS = 5  # points along the onset chord (it is an arc: 5 keep it within millimetres of the arc)
 
 

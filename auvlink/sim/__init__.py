@@ -8,7 +8,7 @@ Modules (imported on use; only :mod:`~auvlink.sim.scene` is light, the rest load
   objects placed on the seabed (:func:`~auvlink.sim.object_meshes.placed_mesh`).
 - :mod:`auvlink.sim.seabed` analytic sloped, rough seabed and ray intersection.
 - :mod:`auvlink.sim.trajectory` the vehicle's true pose, velocities and rates over time.
-- :mod:`auvlink.sim.sonar_render` sonar frames (512 bins x 96 beams, uint8) by ray casting.
+- :mod:`auvlink.sim.sonar_render` sonar frames (range bins x beams of the sonar model, uint8) by ray casting.
 """
 
 from auvlink.sim.scene import (

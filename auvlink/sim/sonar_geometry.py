@@ -1,18 +1,20 @@
-"""Geometry of the simulated forward-scan sonar (DIDSON class): beams, rays, range bins, mounting.
+"""Geometry of the simulated forward-scan sonar: beams, rays, range bins, mounting.
 
 Sonar frame S: x boresight, y starboard, z down. A return at range ``r``, azimuth ``theta``
 (+ to starboard) and elevation ``phi`` (+ downward from the boresight) is
 ``p_S = r [cos(phi) cos(theta), cos(phi) sin(theta), sin(phi)]``.
 
-- 96 beams, azimuths linear from -14.5 to +14.5 deg (equation (2) fallback; beam ``n`` is column
-  ``n`` of the image).
+- The beams of the scene's sonar model (:attr:`auvlink.sonar.Sonar.description`: the DIDSON's 96 beams
+  linear over +-14.5 deg by default, the ARIS SDK tables, the Oculus' sine-law table); beam ``n`` is
+  column ``n`` of the image, port first.
 - K rays per beam at elevations ``phi_k`` linear from ``-s/2`` to ``+s/2`` (both ends included), i.e.
   ``t - s/2`` .. ``t + s/2`` below the vehicle's horizontal: the steepest ray (``phi = +s/2``) is
   the highlight-extension ray and always present.
 - Mounting: ``R_BS = Ry(-tilt)`` (a pitch-down tilt, positive looks down), sonar origin at the
   body-frame lever arm. ``R_WS = R_WB R_BS``.
-- 512 range bins over the window ``[start, start + length)``: bin ``m`` covers
-  ``start + [m, m + 1) * length / 512`` and its centre is ``r_m = start + (m + 0.5) * length / 512``.
+- ``n_bins`` range bins (the model's samples per beam, 512 for DIDSON/ARIS, or the window over an
+  Oculus' range resolution) over ``[start, start + length)``: bin ``m`` covers
+  ``start + [m, m + 1) * length / n_bins``, centre ``r_m = start + (m + 0.5) * length / n_bins``.
 """
 
 from __future__ import annotations
@@ -24,36 +26,39 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.scene import SonarConfig
+from auvlink.sonar import DEFAULT_SONAR, DIDSON, SonarDescription
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
-N_BEAMS = 96
-N_BINS = 512
-HALF_FOV_DEG = 14.5
+#: range bins of the default (DIDSON) image: its samples per beam
+N_BINS = DIDSON.range_lines(DEFAULT_SONAR.window_length)
 
 
 class RayFan:
     """The simulator's rays of one device: ray directions in S and B, beam per ray, range bins. (Recon's view of
     the same sonar, beams and bins without rays, is :class:`recon.sonar_geometry.SonarGeometry`.)"""
 
-    def __init__(self, config: SonarConfig, rays_per_beam: int | None = None,
-                 n_beams: int = N_BEAMS, n_bins: int = N_BINS) -> None:
+    def __init__(self, config: SonarConfig, rays_per_beam: int | None = None, n_bins: int | None = None,
+                 description: SonarDescription | None = None) -> None:
+        """The fan of ``config``'s sonar model (or of ``description``); ``n_bins`` overrides its range lines."""
         self.config = config
-        self.n_beams, self.n_bins = n_beams, n_bins
+        self.description = description if description is not None else config.description
+        self.n_beams = self.description.n_beams
+        self.n_bins = n_bins = n_bins if n_bins is not None else self.description.range_lines(config.window_length)
         self.k = int(rays_per_beam if rays_per_beam is not None else config.rays_per_beam)
         if self.k < 2:
             raise ValueError("rays_per_beam must be >= 2 (the spread's two edges)")
         self.tilt = math.radians(config.tilt_deg)
         self.spread = math.radians(config.spread_deg)
-        self.azimuth = np.radians(np.linspace(-HALF_FOV_DEG, HALF_FOV_DEG, n_beams))
+        self.azimuth = np.radians(np.asarray(self.description.bearings_deg, dtype=np.float64))
         self.elevation = np.linspace(-self.spread / 2.0, self.spread / 2.0, self.k)
         # elevation-major ray order, ray index = k * n_beams + beam: the rays that reach the seabed
         # within a range form (nearly) one contiguous tail, which the seabed refines as a slice
         ph, th = np.meshgrid(self.elevation, self.azimuth, indexing="ij")  # (K, beams)
         d_s = np.stack([np.cos(ph) * np.cos(th), np.cos(ph) * np.sin(th), np.sin(ph)], axis=-1)
         self.dir_s = d_s.reshape(-1, 3)
-        self.beam_of_ray = np.tile(np.arange(n_beams), self.k)
+        self.beam_of_ray = np.tile(np.arange(self.n_beams), self.k)
         self.r_bs = Rotation.from_euler("y", -self.tilt)
         self.dir_b = self.r_bs.apply(self.dir_s)
         self.dir_b_soa = np.ascontiguousarray(self.dir_b.T)  # (3, N) rows for fast per-frame math

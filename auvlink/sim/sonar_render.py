@@ -1,4 +1,4 @@
-"""Simulated forward-scan sonar images (Sung et al. 2021, section 4.1.1), 512 bins x 96 beams.
+"""Simulated forward-scan sonar images (Sung et al. 2021, section 4.1.1), n_bins x n_beams of the sonar model.
 
 For one sonar pose: K rays per beam (:mod:`auvlink.sim.sonar_geometry`) are intersected with the
 seabed analytically (:mod:`auvlink.sim.seabed`) and with the scene's object meshes by Open3D's
@@ -60,7 +60,7 @@ def frame_rng(seed: int, frame: int) -> np.random.Generator:
 
 @dataclass(frozen=True)
 class RayHits:
-    """Nearest hit of every ray of one frame (ray index = k * 96 + beam, k = elevation index)."""
+    """Nearest hit of every ray of one frame (ray index = k * n_beams + beam, k = elevation index)."""
 
     origin: F64  # (3,) sonar origin, world NED
     dirs: F64  # (3, N) unit ray directions, world NED, as rows
@@ -184,7 +184,7 @@ class SonarRenderer:
 
     # --- image -------------------------------------------------------------------------------
     def returns(self, hits: RayHits) -> tuple[I64, F64]:
-        """Equation (9), sparse: sorted unique flat cells ``bin * 96 + beam`` and their sums."""
+        """Equation (9), sparse: sorted unique flat cells ``bin * n_beams + beam`` and their sums."""
         g = self.geometry
         ok, cells = g.cells_of_rays(hits.range)
         total = np.bincount(cells, weights=hits.intensity[ok], minlength=g.n_bins * g.n_beams)
@@ -194,7 +194,7 @@ class SonarRenderer:
         return uniq, np.asarray(total[uniq], np.float64)
 
     def intensity(self, hits: RayHits) -> F64:
-        """Equation (9), dense: returns summed per (range bin, beam); float64 (512, 96)."""
+        """Equation (9), dense: returns summed per (range bin, beam); float64 (n_bins, n_beams)."""
         g = self.geometry
         cells, values = self.returns(hits)
         img = np.zeros(g.n_bins * g.n_beams)
@@ -216,7 +216,7 @@ class SonarRenderer:
         return self.imager.display(energy, rng if self.speckle else None)
 
     def image(self, hits: RayHits, rng: np.random.Generator | None = None) -> U8:
-        """Speckle (if enabled; needs ``rng``) and quantize one frame's returns to uint8 (512, 96)."""
+        """Speckle (if enabled; needs ``rng``) and quantize one frame's returns to uint8 (n_bins, n_beams)."""
         if self.imager is not None:
             return self.realistic(hits, rng)
         g = self.geometry
@@ -233,7 +233,7 @@ class SonarRenderer:
 
     def render(self, position: F64, yaw: float, pitch: float, roll: float,
                rng: np.random.Generator | None = None) -> U8:
-        """One uint8 frame (512 range bins x 96 beams) for a body pose (NED m, rad)."""
+        """One uint8 frame (n_bins range bins x n_beams beams, :class:`RayFan`) for a body pose (NED m, rad)."""
         return self.image(self.trace(position, yaw, pitch, roll), rng)
 
     def render_sequence(self, positions: F64, rotations: Rotation, seed: int,

@@ -72,8 +72,12 @@ def vehicle_config_text(scene: Scene, settings: SimSettings) -> str:
         if xyz is not None and rpy is not None:
             dev += f"\nmounting = {{ xyz = {_vec(xyz)}, rpy_deg = {_vec(rpy)} }}"
         rows.append(dev)
-    rows.append(f'[sonar]\ndevice = "sonar"\ntilt_deg = {sonar.tilt_deg!r}\nspread_deg = {sonar.spread_deg!r}\n'
-                f"window_start = {sonar.window_start!r}\nwindow_length = {sonar.window_length!r}")
+    table = (f'[sonar]\ndevice = "sonar"\ntilt_deg = {sonar.tilt_deg!r}\nspread_deg = {sonar.spread_deg!r}\n'
+             f"window_start = {sonar.window_start!r}\nwindow_length = {sonar.window_length!r}")
+    for key in ("model", "frequency_mode"):  # written when the scene names them: the log says which sonar flew
+        if getattr(sonar, key) is not None:
+            table += f'\n{key} = "{getattr(sonar, key)}"'
+    rows.append(table)
     rows.append('[can]\ndbc = "auvlink_nav.dbc"')
     site = scene.datum
     rows.append(f"[site]\nlatitude = {site.latitude!r}\nlongitude = {site.longitude!r}")
