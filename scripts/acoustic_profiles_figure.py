@@ -50,7 +50,7 @@ def panels() -> list[tuple[str, np.ndarray]]:
 def draw(out: Path, show_stats: bool) -> None:
     scene = load_default_scene()
     son = scene.sonar
-    half = 14.5  # the simulator's fan, +-14.5 deg (auvlink.sim.sonar_geometry.HALF_FOV_DEG)
+    half = son.description.half_fov_deg  # the simulator's fan (the scene's sonar model, auvlink.sonar)
     items = panels()
     fig, axes = plt.subplots(1, len(items), figsize=(3.0 * len(items), 4.6), sharey=True)
     for ax, (title, img) in zip(axes, items, strict=True):

@@ -44,7 +44,7 @@ F64 = NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False)
 class SimFrames:
-    """A rendered survey: frame times (s), images (F, 512, 96), the true trajectory, the geometry."""
+    """A rendered survey: frame times (s), images (F, range bins, beams), the true trajectory, the geometry."""
 
     scene: Scene
     times: F64
@@ -61,12 +61,17 @@ def simulate(scene: Scene, duration: float | None = None, speckle: bool = True) 
     renderer = SonarRenderer(run.scene, speckle=speckle)
     s = run.measurements.sonar
     frames = renderer.render_sequence(s.position, Rotation.from_matrix(s.r_wb), run.scene.seed)
-    images = np.stack(list(frames)) if len(s.t) else np.zeros((0, 512, 96), np.uint8)
+    fan = renderer.geometry
+    images = np.stack(list(frames)) if len(s.t) else np.zeros((0, fan.n_bins, fan.n_beams), np.uint8)
     pose = truth_pose(run)
     traj = Trajectory.from_euler(pose.t, pose.position, pose.yaw, pose.pitch, pose.roll, altitude=pose.altitude)
     sc = run.scene.sonar
+    d = sc.description  # the renderer's beams and range bins; a linear fan by its field, an uneven one by its table
     geom = SonarGeometry.from_degrees(sc.tilt_deg, sc.spread_deg, window_start=sc.window_start,
-                                      window_length=sc.window_length, lever_arm=tuple(sc.lever_arm))
+                                      window_length=sc.window_length, lever_arm=tuple(sc.lever_arm),
+                                      n_bins=fan.n_bins, n_beams=fan.n_beams,
+                                      fov=float(np.deg2rad(d.field_of_view_deg)),
+                                      azimuth_table=None if d.is_linear else d.bearings_rad)
     truth = np.array([[o.north, o.east] for o in run.scene.objects]).reshape(-1, 2)
     meshes = [placed_mesh(o, renderer.seabed) for o in run.scene.objects]
     inside = (s.t >= traj.span[0]) & (s.t <= traj.span[1])

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from auvlink.pipeline.nav_inputs import Event, NavAdaptor, SonarPayload, depth_samples, dvl_samples, gyro_samples
 from auvlink.records import Sample
 from recon.nav import DepthSamples, DvlSamples, GyroSamples
+from recon.sonar_geometry import DEFAULT_BEAMS, DEFAULT_BINS
 
 F64 = NDArray[np.float64]
 
@@ -36,7 +37,7 @@ class SonarFrames:
 
     def stack(self) -> tuple[F64, NDArray[np.uint8]]:
         if not self.times:
-            return np.zeros(0), np.zeros((0, 512, 96), np.uint8)
+            return np.zeros(0), np.zeros((0, DEFAULT_BINS, DEFAULT_BEAMS), np.uint8)  # no frames: the default image
         return np.asarray(self.times), np.stack(self.images)
 
 
