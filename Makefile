@@ -30,14 +30,14 @@ typecheck: $(STAMP)
 # The suite on both cores (pytest-xdist; a file's tests stay on one worker, so module fixtures are built once),
 # then the real-time tests (`live`) alone, so no other test competes with their clocks.
 test: $(STAMP) lint typecheck
-	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not live"
+	$(BIN)/python -m pytest -n 2 --dist loadgroup --no-loadscope-reorder -m "not live"
 	$(BIN)/python -m pytest -m live
 
 FAST_TESTS := not slow and not live and not dask and not train and not browser
 
 test-fast: $(STAMP)
 	$(BIN)/ruff check auvlink logs_format recon classify tests benchmarks
-	$(BIN)/python -m pytest -n 2 --dist loadfile -m "$(FAST_TESTS)"
+	$(BIN)/python -m pytest -n 2 --dist loadgroup --no-loadscope-reorder -m "$(FAST_TESTS)"
 
 bench: $(STAMP)
 	$(BIN)/auvlink bench --out bench-out

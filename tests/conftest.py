@@ -89,3 +89,34 @@ def no_leaked_can_buses() -> Iterator[None]:
     after = {name: len(queues) for name, queues in virtual.channels.items()}
     leaked = {name: n - before.get(name, 0) for name, n in after.items() if n > before.get(name, 0)}
     assert not leaked, f"test leaked virtual CAN buses (channel: count): {leaked}"
+
+
+
+#: the test files that take longest (``pytest --durations``, 2-core machine), started first in this order
+HEAVIEST_FILES = ("test_bench_smoke.py", "test_classify_default.py", "test_classify_clutter.py",
+                  "test_evaluation_clutter_sweep.py", "test_batch_resume.py", "test_log_tools.py",
+                  "test_batch_e2e.py", "test_log_truncation.py", "test_batch_scheduler.py", "test_batch_trust.py")
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which names each item's unit from these marks
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Schedule for the xdist workers of ``make test`` (``--dist loadgroup``): a test file is one unit (its
+    module fixtures are built once), except that a test marked ``train`` is a unit of its own (it trains and
+    shares nothing worth keeping). Units start longest first: ``train`` tests, then :data:`HEAVIEST_FILES`,
+    then the rest in file order, so that no long unit starts last."""
+    units: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        marker = item.get_closest_marker("xdist_group")
+        if marker is None:
+            unit = item.nodeid if item.get_closest_marker("train") else item.nodeid.split("::")[0]
+            item.add_marker(pytest.mark.xdist_group(unit))
+        else:
+            unit = str(marker.args[0] if marker.args else marker.kwargs.get("name", "default"))
+        units.setdefault(unit, []).append(item)
+
+    def rank(unit: list[pytest.Item]) -> tuple[int, int]:
+        name = unit[0].path.name
+        heavy = HEAVIEST_FILES.index(name) if name in HEAVIEST_FILES else len(HEAVIEST_FILES)
+        return (0 if unit[0].get_closest_marker("train") else 1, heavy)
+
+    items[:] = [i for unit in sorted(units.values(), key=rank) for i in unit]
