@@ -133,3 +133,19 @@ def test_randomization_bounds_checked(tmp_path: Path) -> None:
     bad.write_text("[synthesis]\ndr_prob = 1.5\n")
     with pytest.raises(AuvlinkError, match="dr_prob"):
         load_train_settings(bad)
+
+
+def test_eval_recon_takes_one_profile(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from auvlink.cli import main
+
+    assert main(["eval", "--recon", "--acoustics", "random", "--out", str(tmp_path / "e")]) != 0
+    assert "--acoustics random" in capsys.readouterr().err
+    assert not (tmp_path / "e").exists()
+
+
+def test_standard_passes_under_a_profile() -> None:
+    from auvlink.evaluation.recon_eval import standard_passes
+
+    assert standard_passes().acoustics == "ideal"
+    quick = standard_passes(True, "didson")
+    assert quick.acoustics == "didson" and quick == replace(standard_passes(True), acoustics="didson")

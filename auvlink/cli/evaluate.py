@@ -17,7 +17,8 @@ and ``DIR/surveys.png`` and prints the table, then per true class its recall, fa
 objects were called (``--json``: the pooled figures as JSON). Default seed 1. ``--acoustics SPACE``: the
 acoustic conditions drawn with each survey (:mod:`auvlink.evaluation.acoustic_draw`): ``ideal`` (the default for
 now, so figures stay comparable with earlier runs), ``random`` (profile, beam patterns, sidelobes, pulse, gain,
-TVG error, noise floor, interference drawn per survey; one factor row each) or a sonar profile name.
+TVG error, noise floor, interference drawn per survey; one factor row each) or a sonar profile name; with
+``--recon`` the passes are rendered under that profile.
 
 ``--clutter-sweep`` (with ``--surveys``): also measure the clutter threshold on those surveys
 (:mod:`auvlink.evaluation.clutter_sweep`): the figures above stay those of the model's own threshold, and a table
@@ -42,6 +43,7 @@ from typing import TYPE_CHECKING
 
 from auvlink.atomic import check_output_dir, check_output_file, write_text
 from auvlink.cli.survey_options import check_survey_options
+from auvlink.errors import AuvlinkError
 from auvlink.evaluation.acoustic_draw import SPACES
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
@@ -96,6 +98,9 @@ def _held_out(args: argparse.Namespace) -> int:
     # lazy: PyTorch, Open3D and SciPy load only for this command (the parser imports every subcommand module)
     from auvlink.evaluation.recon_eval import evaluate_recon, reconstruct_set, standard_passes
 
+    if args.recon and args.acoustics == "random":
+        raise AuvlinkError(f"--acoustics random: --recon renders its passes under one sonar profile; "
+                           f"name one of {', '.join(SPACES[1:])}")
     check_output_dir(args.out, force=args.force)  # before any work (and before torch loads)
     if args.model is not None:
         for name in ("eval.json", "confusion.png", "baseline2d.json", "baseline2d_confusion.png"):
@@ -109,9 +114,11 @@ def _held_out(args: argparse.Namespace) -> int:
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     extra: dict[str, object] = {}
     if args.recon:
-        clouds = reconstruct_set(clf.object_classes, standard_passes(args.quick), progress=True, cache_dir=cache)
+        passes = standard_passes(args.quick, args.acoustics)
+        clouds = reconstruct_set(clf.object_classes, passes, progress=True, cache_dir=cache)
         report, missed = evaluate_recon(clf, clouds)
-        extra = {"source": "recon clouds of simulated passes", "passes": len(clouds), "not_detected": missed}
+        extra = {"source": "recon clouds of simulated passes", "acoustics": passes.acoustics, "passes": len(clouds),
+                 "not_detected": missed}
         title = f"recon clouds (n={report.n}, {missed} passes without a detection)"
     else:
         data = heldout_set(clf.checkpoint.synthesis, clf.class_names, cache, args.seed, progress=True,

@@ -12,6 +12,10 @@ simulated and replayed with the new model, every clutter threshold from 0.30 to 
 (:mod:`auvlink.evaluation.clutter_sweep`), and the checkpoint takes the best one by F1 at 1 m (the held-out value
 is kept as ``clutter_threshold_before``). The surveys' folders go to ``--calibrate-out`` (default: a temporary
 folder, removed). Keep the calibration seed apart from the seeds you evaluate the model on.
+
+``--recon-eval`` adds the accuracy on clouds recon reconstructs from passes the simulator renders (idealized sonar);
+``--recon-eval-acoustics PROFILE ...`` the same on the quick passes rendered under each sonar profile
+(:func:`auvlink.evaluation.recon_eval.recon_metrics`; metrics ``recon_PROFILE``).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from pathlib import Path
 
 from auvlink.atomic import check_output_dir, check_output_file
 from auvlink.cli.survey_options import check_survey_options
+from auvlink.sim.acoustics import PROFILES
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -38,6 +43,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--recon-eval", action="store_true",
                    help="also evaluate on clouds recon reconstructs from simulated passes (stored in the metrics)")
+    p.add_argument("--recon-eval-acoustics", nargs="+", default=(), choices=PROFILES[1:], metavar="PROFILE",
+                   help=f"also evaluate on recon's clouds of passes rendered under these sonar profiles "
+                        f"({', '.join(PROFILES[1:])}; the quick passes, stored as recon_PROFILE in the metrics)")
     p.add_argument("--calibrate-surveys", type=int, default=None, metavar="N",
                    help="set the clutter threshold from N random simulated surveys (best F1 at 1 m)")
     p.add_argument("--calibrate-seed", type=int, default=2, metavar="S",
@@ -63,17 +71,20 @@ def run(args: argparse.Namespace) -> int:
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
                               args.threads)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
-    extra = {"recon": recon_metrics(cache, progress=not args.quiet)} if args.recon_eval else None
+    extra = {"recon": recon_metrics(cache, progress=not args.quiet)} if args.recon_eval else {}
+    extra.update({f"recon_{p}": recon_metrics(cache, not args.quiet, p, quick=True) for p in args.recon_eval_acoustics})
     out = train_and_save(settings, args.out, cache, progress=not args.quiet, extra_evals=extra)
     m = out.metrics
     print(f"trained {m['epochs_run']} epochs in {m['train_seconds']:.1f} s (synthesis {m['synthesis_seconds']:.1f} s), "
           f"best epoch {m['best_epoch']}, validation accuracy {m['val_accuracy']:.3f}")
     print(f"held-out synthesized clouds ({out.heldout.n}):")
     print(out.heldout.text())
-    if "recon" in m:
-        r = m["recon"]
-        print(f"recon clouds of simulated passes ({r['n']} detected of {r['n_passes']}): accuracy {r['accuracy']:.3f}, "
-              f"macro precision {r['macro']['precision']:.3f}, recall {r['macro']['recall']:.3f}")
+    for key in ("recon", *(f"recon_{p}" for p in args.recon_eval_acoustics)):
+        if key in m:
+            r = m[key]
+            print(f"{key}: recon clouds of simulated passes ({r['n']} detected of {r['n_passes']}): accuracy "
+                  f"{r['accuracy']:.3f}, macro precision {r['macro']['precision']:.3f}, "
+                  f"recall {r['macro']['recall']:.3f}")
     if args.calibrate_surveys is not None:
         _calibrate(args, out.path)
     print(f"checkpoint: {out.path} ({out.path.stat().st_size / 1e6:.2f} MB)")

@@ -113,12 +113,13 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
     return np.asarray(best.points, dtype=np.float64), float(rec.seabed_depth_at(best.centroid[None, :2])[0])
 
 
-def standard_passes(quick: bool = False) -> PassSettings:
+def standard_passes(quick: bool = False, acoustics: ProfileName = "ideal") -> PassSettings:
     """The evaluation passes of ``auvlink eval --recon`` and the benchmark (seed 11; no training draw
-    uses the simulator or recon at all)."""
+    uses the simulator or recon at all), rendered under the sonar profile ``acoustics``."""
     if quick:
-        return PassSettings(headings_deg=(10.0, 145.0, 280.0), tilts_deg=(30.0,), altitudes_m=(4.0, 5.0), seed=11)
-    return PassSettings(altitudes_m=(4.0, 5.0), laterals_m=(-0.7, 0.5), seed=11)
+        return PassSettings(headings_deg=(10.0, 145.0, 280.0), tilts_deg=(30.0,), altitudes_m=(4.0, 5.0), seed=11,
+                            acoustics=acoustics)
+    return PassSettings(altitudes_m=(4.0, 5.0), laterals_m=(-0.7, 0.5), seed=11, acoustics=acoustics)
 
 
 def iter_passes(class_names: Sequence[str], s: PassSettings) -> Iterator[tuple[str, float, float, float, float]]:
@@ -184,12 +185,14 @@ def horizontal_extent(points: npt.NDArray[np.float64]) -> float:
     return float(math.sqrt(float((d**2).sum(axis=1).max())))
 
 
-def recon_metrics(cache_dir: Path | None = None, progress: bool = False) -> Callable[[Classifier], dict[str, Any]]:
+def recon_metrics(cache_dir: Path | None = None, progress: bool = False, acoustics: ProfileName = "ideal",
+                  quick: bool = False) -> Callable[[Classifier], dict[str, Any]]:
     """The check ``auvlink train --recon-eval`` adds to :func:`classify.training.workflow.train_and_save`: the trained
-    classifier on the clouds of :func:`standard_passes` (evaluation only, never training data)."""
+    classifier on the clouds of :func:`standard_passes` rendered under ``acoustics`` (evaluation only, never
+    training data)."""
 
     def run(clf: Classifier) -> dict[str, Any]:
-        passes = standard_passes()
+        passes = standard_passes(quick, acoustics)
         clouds = reconstruct_set(clf.object_classes, passes, progress, cache_dir)
         rep, missed = evaluate_recon(clf, clouds)
         return {"passes": asdict(passes), "n_passes": len(clouds), "not_detected": missed, **rep.to_dict()}
