@@ -29,7 +29,7 @@ from auvlink.framing.aris_defs import (
     SIGNATURE,
     SIGNATURE_U32,
 )
-from auvlink.framing.base import Framer
+from auvlink.framing.base import ResumingFramer
 
 _U32 = struct.Struct("<I")
 _NEED = OFF_SAMPLES_PER_BEAM + 4  # header bytes needed to know the frame length
@@ -120,21 +120,13 @@ def scan(
     return Step(WAIT, checked=max(lo, hi - len(SIGNATURE) + 1))
 
 
-class ArisFramer(Framer):
+class ArisFramer(ResumingFramer):
     """Cuts ARIS frames (any ARIS ping mode) out of a byte stream."""
 
     format_name = "aris"
     max_frame = FRAME_HEADER_SIZE + max(ALL_BEAMS) * MAX_SAMPLES_PER_BEAM
     #: beam counts accepted as sane (ARIS: 48, 64, 96, 128)
     beams_ok: frozenset[int] = ALL_BEAMS
-
-    def __init__(self) -> None:
-        super().__init__()
-        self._checked = 0
-
-    def reset(self) -> None:
-        super().reset()
-        self._checked = 0
 
     def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
         raw = data if isinstance(data, bytes) else bytes(data)
@@ -159,9 +151,8 @@ class ArisFramer(Framer):
                 self.stats.dropped_bytes += step.n
                 self.stats.truncated += int(step.kind == CUT)
             pos += step.n
-        # ``checked`` is absolute in ``buf``; keep it relative to the new front.
-        self._checked = max(0, checked - pos) if checked else 0
-        del buf[:pos]
+        self._checked = checked  # absolute in ``buf``: _consume makes it relative to the new front
+        self._consume(buf, pos)
         return out
 
 

@@ -108,3 +108,22 @@ class Framer(ABC):
     @abstractmethod
     def _extract(self, buf: bytearray, final: bool = False) -> list[bytes]:
         """Remove whole frames (and garbage) from the front of ``buf``; leave a partial frame."""
+
+
+class ResumingFramer(Framer):
+    """A framer that checks a candidate frame for a header inside it (a damaged header can claim the wrong
+    length) and remembers between feeds how far that search went: ``_checked``, an offset into the buffer,
+    so that every byte is searched once (linear time)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._checked = 0
+
+    def reset(self) -> None:
+        super().reset()
+        self._checked = 0
+
+    def _consume(self, buf: bytearray, pos: int) -> None:
+        """Remove ``buf[:pos]`` (already returned or counted), keeping ``_checked`` relative to the new front."""
+        self._checked = max(0, self._checked - pos)
+        del buf[:pos]

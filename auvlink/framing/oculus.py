@@ -12,7 +12,7 @@ position is remembered between feeds, so every byte is searched once (linear tim
 
 from __future__ import annotations
 
-from auvlink.framing.base import Framer
+from auvlink.framing.base import ResumingFramer
 from auvlink.framing.oculus_defs import HEADER, KNOWN_MESSAGES, MAX_PAYLOAD, OCULUS_ID_BYTES
 
 #: highest ``msgVersion`` of the messages in Oculus.h (SimplePingResult V2)
@@ -31,19 +31,11 @@ def message_length(buf: bytes | bytearray, pos: int) -> int:
     return HEADER.size + int(h["payload_size"])
 
 
-class OculusFramer(Framer):
+class OculusFramer(ResumingFramer):
     """Cuts Oculus messages out of a byte stream (see the module docstring)."""
 
     format_name = "oculus"
     max_frame = HEADER.size + MAX_PAYLOAD
-
-    def __init__(self) -> None:
-        super().__init__()
-        self._checked = 0
-
-    def reset(self) -> None:
-        super().reset()
-        self._checked = 0
 
     def _whole(self, data: bytes | bytearray | memoryview) -> bytes | None:
         raw = data if isinstance(data, bytes) else bytes(data)
@@ -108,6 +100,5 @@ class OculusFramer(Framer):
             out.append(bytes(buf[pos : pos + n]))
             pos += n
             self._checked = 0
-        self._checked = max(0, self._checked - pos)
-        del buf[:pos]
+        self._consume(buf, pos)
         return out
