@@ -1,7 +1,9 @@
 """DBSCAN clustering of object points into :class:`DetectedObject`, in batch and streaming.
 
-DBSCAN runs in Open3D (``PointCloud.cluster_dbscan``) by default, scikit-learn as the alternative
-(the same definition: a core point has >= ``min_points`` neighbours within ``eps``, itself included).
+DBSCAN runs on a voxel grid by default (:func:`recon.cluster_grid.grid_dbscan`: Open3D's labels, to the
+cluster number and border point, at a cost set by the points and cells rather than by the neighbour pairs),
+Open3D (``PointCloud.cluster_dbscan``) and scikit-learn as the alternatives (the same definition: a core point
+has >= ``min_points`` neighbours within ``eps``, itself included).
 Clusters whose horizontal bounding boxes come within ``footprint_gap`` m are then merged
 (:func:`merge_footprints`): objects rest side by side on the seabed, and a part seen apart from its
 object (a reef's post, farther than ``eps`` from its top) shares its footprint.
@@ -37,7 +39,7 @@ class ClusterConfig:
     min_cluster_points: int = 25  # smaller clusters are noise
     max_points: int = 200_000  # above this, voxel-downsample first
     voxel: float = 0.05  # m
-    backend: Literal["open3d", "sklearn"] = "open3d"
+    backend: Literal["grid", "open3d", "sklearn"] = "grid"
     quiet_s: float = 3.0
     margin: float = 2.0  # m
     noise_keep_s: float = 60.0
@@ -82,7 +84,7 @@ def voxel_downsample(points: F64, voxel: float) -> tuple[F64, NDArray[np.int64]]
 
 
 def dbscan_labels(points: ArrayLike, eps: float, min_points: int,
-                  backend: Literal["open3d", "sklearn"] = "open3d") -> NDArray[np.int64]:
+                  backend: Literal["grid", "open3d", "sklearn"] = "grid") -> NDArray[np.int64]:
     """DBSCAN labels (-1 = noise) of (N, 3) points."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if p.shape[0] == 0:
@@ -91,6 +93,10 @@ def dbscan_labels(points: ArrayLike, eps: float, min_points: int,
         bad = ~np.isfinite(p).all(axis=1)
         raise ReconError(f"cannot cluster {int(bad.sum())} non-finite point(s) (first at index {int(np.argmax(bad))})")
     local = p - p.mean(axis=0)  # keep the neighbour search well conditioned far from the origin
+    if backend == "grid":
+        from recon.cluster_grid import grid_dbscan
+
+        return grid_dbscan(local, eps, min_points)
     if backend == "sklearn":
         from sklearn.cluster import DBSCAN
 

@@ -82,7 +82,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
     engine = Engine(setup, cfg, t0_ns=t0_ns, recon_config=recon_config,
                     labeller=ObjectLabeller(classify, model, clutter_threshold, torch_threads),
                     hooks=EngineHooks(on_detection=on_detection, on_frames=fans))
-    # no warm-up: PyTorch loads at the first classification and Open3D at the first clustering, off the path to
+    # no warm-up: PyTorch loads at the first classification (clustering needs no Open3D), off the path to
     # the first frame (start_up_s: from this call to the first frames processed)
     warm_s: float | None = None
     replay = Replay(log, speed=speed, formats=CONSUMED_FORMATS)
