@@ -5,28 +5,32 @@ the seabed comes back as a ramp of rising intensity well before the range at whi
 (``tilt + spread / 2``) meets it. The highlight-extension method needs the *effective* steepest elevation: the
 one at which the seabed first shows in the image, under this sonar's pattern, gain and TVG.
 
-Per frame (:func:`frame_edges`): the mean over the central beams, averaged over a quarter metre of range centred
-on each row: a profile along range (objects in a few frames are outvoted by the running median below), its water
-level
-``N`` (the median of the profile at ranges shorter than the sonar's height above the seabed: no seabed can
-return there; the profile's 5th percentile when the window starts beyond it)
-and its seabed level ``P`` (the 90th percentile of the profile), both in the image's own grey levels. The
-onset is the first range at which the profile reaches the midpoint ``(N + P) / 2`` of that log-intensity step (the
-edge of a step at half its height, the usual edge convention; gain and TVG shift both levels alike). The
-seabed plane is the one the onset stage predicts the onset with (:meth:`recon.onset_stage.OnsetStage.seabed_planes`:
-the seabed fitted so far where the fan looks, else the flat seabed at the DVL altitude under the vehicle), seen
-with the vehicle's attitude: the elevation
-(in the sonar frame, above the fan's axis) whose ray meets that plane at the onset range, the median over the
-central beams (the onset varies a little with the azimuth), is the frame's edge.
-Frames with a step smaller than :data:`MIN_STEP_MAD` MADs of the water (no seabed in the window) give none.
+Per frame (:func:`frame_edges`): each central beam's column, as its upper envelope (each row's maximum over the
+:data:`ENVELOPE_M` of range ending at it: the comb of bright bins a sampled surface makes and the speckle's dark
+samples fill in, while a surface's first bright bin stays where it is), in the image's own grey levels. The
+central beams' median envelope gives the frame's water level ``N`` (its median at ranges shorter than the
+sonar's height above the seabed plane: no seabed can return there; its 5th percentile when the window starts
+beyond that) and seabed level ``P`` (its 90th percentile beyond that height). Each central beam's onset is the
+first range beyond that height at which its envelope reaches the midpoint ``(N + P) / 2`` of that log-intensity
+step (the edge of a step at half its height, the usual edge convention; gain and TVG shift both levels alike).
+The seabed plane is the one the onset stage predicts the onset with
+(:meth:`recon.onset_stage.OnsetStage.seabed_planes`: the seabed fitted so far where the fan looks, else the flat
+seabed at the DVL altitude under the vehicle), seen with the vehicle's attitude: per beam, the elevation (in the
+sonar frame, above the fan's axis) whose ray meets that plane at the beam's onset range; their median (an object
+in a few beams, a sloped or rolled seabed moving the onset across the fan) is the frame's edge. Frames with a
+step smaller than :data:`MIN_STEP_MAD` MADs of the water (no seabed in the window), or with fewer than half the
+central beams showing the onset, give none.
 
 :class:`BeamEdge` keeps the running median of the last ``window`` frame edges (re-estimated as the survey goes
 on: gain, TVG and seabed type change) and gives the effective half-spread: the nominal ``spread / 2`` until
-``min_frames`` frames gave an edge.
+``min_frames`` frames gave an edge, and never less than it afterwards (the data sheet's spread is the two-way
+-3 dB width; a real beam has energy beyond it, so the seabed shows at or beyond the nominal edge, and an estimate
+inside it is the range quantization of a hard edge).
 """
 
 from __future__ import annotations
 
+import warnings
 from collections import deque
 
 import numpy as np
@@ -39,28 +43,40 @@ F64 = NDArray[np.float64]
 
 #: beams within this fraction of the fan's half-width of its centre give the profile (the central third)
 CENTRAL_FRACTION = 1.0 / 3.0
-#: m of range the profile is averaged over (a sampled surface's comb of bright bins and the speckle average out;
-#: well under the 1-2 m of range over which the onset moves with the altitude)
-SMOOTH_M = 0.25
+#: m of range behind each row's upper envelope (recon.highlight's return span: a surface's bright bins lie closer
+#: than that, and it is well under the 1-2 m of range over which the onset moves with the altitude)
+ENVELOPE_M = 0.25
 #: water-to-seabed steps smaller than this many MADs of the water profile are not a seabed onset (Gaussian
 #: 6 sigma: a false step once in ~5e8 rows)
 MIN_STEP_MAD = 6.0
-#: frames behind the running median: 10 s at 10 frames/s (the DVL altitude's own noise averages out, a change
-#: of gain or seabed shows within the window)
-WINDOW_FRAMES = 100
+#: the fraction of the water-to-seabed step (grey levels: dB on a log display) at which the seabed's onset is taken,
+#: and the level a return must reach (:attr:`BeamEdge.level`): a quarter (the seabed shows where it is 1/4 of its
+#: step above the water; a reflector as bright as the seabed shows where the effective edge meets it)
+ONSET_STEP = 0.25
+
+#: frames behind the running median: 60 s at 10 frames/s (the DVL altitude's noise, the crests and troughs of a
+#: rough seabed under the fan's edge for a few seconds each and the objects passing through it average out; gain,
+#: TVG and seabed type change from survey to survey, and a change shows within the window)
+WINDOW_FRAMES = 600
 #: frames with an edge before the estimate replaces the nominal edge (1 s at 10 frames/s)
 MIN_FRAMES = 10
 
 
-def _smoothed(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, F64]:
-    """The central beams' azimuths (C,) and their columns (F, bins, C) averaged over :data:`SMOOTH_M` of range
-    centred on each row."""
+def _envelope(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, F64]:
+    """The central beams' azimuths (C,) and their columns' upper envelope (F, bins, C): each row's maximum over
+    the :data:`ENVELOPE_M` of range that end at it (a sampled surface's comb of bright bins and the speckle's dark
+    samples fill in; a surface's first bright bin stays where it is)."""
     az = geometry.azimuths
     central = np.abs(az) <= CENTRAL_FRACTION * np.abs(az).max()
-    cols = images[:, :, central].astype(np.float64)
-    k = max(1, round(SMOOTH_M / geometry.bin_size))
-    c = np.cumsum(np.pad(cols, ((0, 0), (k // 2 + 1, k - k // 2 - 1), (0, 0)), mode="edge"), axis=1)
-    return az[central], np.asarray((c[:, k:] - c[:, :-k]) / k, dtype=np.float64)
+    cols = images[:, :, central]
+    k = max(1, round(ENVELOPE_M / geometry.bin_size))
+    env = cols.copy()
+    span = 1
+    while span < k:  # running maximum over the k rows ending at each row, by doubling (log2 k passes)
+        step = min(span, k - span)
+        np.maximum(env[:, step:], env[:, :-step].copy(), out=env[:, step:])
+        span += step
+    return az[central], env.astype(np.float64)
 
 
 def _plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, normal: F64, az: F64
@@ -77,54 +93,97 @@ def _plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, n
     return height, a, np.broadcast_to(-n_s[:, 2:3], a.shape)
 
 
+def _levels(env: F64, no_seabed: NDArray[np.bool_]) -> tuple[F64, F64, NDArray[np.bool_]]:
+    """Per frame and row the water level ``N`` (F, bins), per frame the seabed level ``P`` (F,), both of the
+    envelopes (F, bins, C) in grey levels, and whether that step is a seabed onset (module docstring);
+    ``no_seabed`` (F, bins) the rows no seabed can return from (a prefix of each frame's rows)."""
+    prof = np.median(env, axis=2)  # (F, bins): the central beams' median (an object in a few beams is outvoted)
+    rows = np.arange(prof.shape[1], dtype=np.float64)
+    h = no_seabed.sum(axis=1).astype(np.float64)  # (F,): rows before the seabed can show
+    has_water = h >= 8
+    near, far = rows[None, :] < 0.5 * h[:, None], no_seabed & (rows[None, :] >= 0.5 * h[:, None])
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows (no water, no seabed): NaN levels, no step
+        n_near = np.nanmedian(np.where(near, prof, np.nan), axis=1)
+        n_far = np.nanmedian(np.where(far, prof, np.nan), axis=1)
+        mad = np.nanmedian(np.abs(np.where(far, prof, np.nan) - n_far[:, None]), axis=1)
+        p_lvl = np.nanpercentile(np.where(no_seabed, np.nan, prof), 90, axis=1)
+        # the water's level along range: a line through the medians of the water's near and far halves (the
+        # time-varied gain lifts the noise with range), never falling
+        slope = np.where(has_water, np.maximum(0.0, (n_far - n_near) / (0.5 * h)), 0.0)
+        flat = np.nanpercentile(prof, 5, axis=1)
+    n_lvl = np.where(has_water, n_far, flat)[:, None] + slope[:, None] * (rows[None, :] - 0.75 * h[:, None])
+    step_ok = np.nan_to_num(p_lvl - np.where(has_water, n_far, flat)) > (
+        MIN_STEP_MAD * 1.4826 * np.maximum(np.where(has_water, np.nan_to_num(mad), 0.0), 1.0))
+    return n_lvl, p_lvl, step_ok
+
+
 def frame_edges(images: NDArray[np.uint8], geometry: SonarGeometry, pos: F64, rot: Rotation, point: F64,
-                normal: F64) -> F64:
+                normal: F64) -> tuple[F64, F64]:
     """Per frame, the effective steepest elevation (rad, above the fan's axis, in S) measured from its seabed
-    onset against the seabed plane (``point``, unit ``normal`` into the water, (F, 3) each) (module docstring);
-    NaN where the frame shows no onset or the plane is unknown."""
-    az, cols = _smoothed(images, geometry)
-    prof = cols.mean(axis=2)
+    onset against the seabed plane (``point``, unit ``normal`` into the water, (F, 3) each), and the grey level
+    ``(N + P) / 2`` that defines that onset (module docstring); both (F,), NaN where the frame shows no onset or
+    the plane is unknown."""
+    az, env = _envelope(images, geometry)
     r = geometry.ranges
     height, a, b = _plane_terms(geometry, rot, pos, point, normal, az)
-    no_seabed = r[None, :] < height[:, None]
-    has_water = no_seabed.sum(axis=1) >= 8
-    water_rows = np.where(no_seabed | ~has_water[:, None], prof, np.nan)  # all rows where there is no water: unused
-    with np.errstate(all="ignore"):
-        n_lvl = np.where(has_water, np.nanmedian(water_rows, axis=1), np.percentile(prof, 5, axis=1))
-        mad = np.where(has_water, np.nanmedian(np.abs(water_rows - n_lvl[:, None]), axis=1), 0.0)
-    p_lvl = np.percentile(prof, 90, axis=1)
-    step_ok = (p_lvl - n_lvl) > MIN_STEP_MAD * 1.4826 * np.maximum(mad, 1.0)
-    mid = 0.5 * (n_lvl + p_lvl)
-    above = (prof >= mid[:, None]) & ~no_seabed
-    row = np.argmax(above, axis=1)
-    found = above[np.arange(prof.shape[0]), row] & step_ok & np.isfinite(height) & (height > 0)
-    g = (height / r[row])[:, None]
+    with np.errstate(invalid="ignore"):
+        no_seabed = r[None, :] < height[:, None]
+    n_lvl, p_lvl, step_ok = _levels(env, no_seabed)
+    mid = n_lvl + ONSET_STEP * (p_lvl[:, None] - n_lvl)  # (F, bins)
+    above = (env >= mid[:, :, None]) & ~no_seabed[:, :, None]  # (F, bins, C)
+    row = np.argmax(above, axis=1)  # (F, C): each central beam's onset row
+    hit = np.take_along_axis(above, row[:, None, :], axis=1)[:, 0, :]
+    g = height[:, None] / r[row]
     amp = np.hypot(a, b)
     with np.errstate(all="ignore"):
-        phi = np.arctan2(b, a) - np.arccos(np.clip(g / amp, -1.0, 1.0))  # (F, C): each beam's edge at that range
-    return np.where(found & np.all(g <= amp, axis=1), np.median(phi, axis=1), np.nan)
+        phi = np.arctan2(b, a) - np.arccos(np.clip(g / amp, -1.0, 1.0))  # (F, C): each beam's edge at its onset
+    phi = np.where(hit & (g <= amp), phi, np.nan)
+    enough = np.isfinite(phi).sum(axis=1) >= 0.5 * phi.shape[1]  # most central beams show the onset
+    ok = step_ok & enough & np.isfinite(height) & (height > 0)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # frames without an onset: NaN
+        edge = np.where(ok, np.nanmedian(np.where(ok[:, None], phi, 0.0), axis=1), np.nan)
+    at_onset = np.take_along_axis(mid, np.median(row, axis=1).astype(np.int64)[:, None], axis=1)[:, 0]
+    return edge, np.where(np.isfinite(edge), at_onset, np.nan)
 
 
 class BeamEdge:
-    """Running estimate of the effective half-spread (rad); see the module docstring."""
+    """Running estimates of the effective half-spread (rad) and of the grey level that defines it (the seabed
+    onset's half step); see the module docstring."""
 
     def __init__(self, nominal_half: float, window: int = WINDOW_FRAMES, min_frames: int = MIN_FRAMES) -> None:
         self.nominal_half = float(nominal_half)
         self.min_frames = int(min_frames)
         self._edges: deque[float] = deque(maxlen=int(window))
+        self._levels: deque[float] = deque(maxlen=int(window))
         self.frames_used = 0
 
-    def update(self, edges: F64, tilt: float) -> float:
-        """Take the frame edges (rad above the axis, NaN: none) of a batch; returns the effective half-spread."""
-        ok = np.asarray(edges, np.float64)
-        ok = ok[np.isfinite(ok) & (ok > 0.0) & (ok < min(0.5 * np.pi - tilt, 0.25 * np.pi))]  # SonarGeometry's range
-        self._edges.extend(float(e) for e in ok)
-        self.frames_used += int(ok.size)
+    def update(self, edges: F64, tilt: float, levels: F64 | None = None) -> float:
+        """Take the frame edges (rad above the axis, NaN: none) of a batch and their onset levels (grey levels,
+        :func:`frame_edges`); returns the effective half-spread."""
+        e = np.asarray(edges, np.float64)
+        lv = np.full(e.shape, np.nan) if levels is None else np.asarray(levels, np.float64)
+        keep = np.isfinite(e) & (e > 0.0) & (e < min(0.5 * np.pi - tilt, 0.25 * np.pi))  # SonarGeometry's range
+        self._edges.extend(float(x) for x in e[keep])
+        self._levels.extend(float(x) for x in lv[keep & np.isfinite(lv)])
+        self.frames_used += int(keep.sum())
         return self.half
 
     @property
     def half(self) -> float:
-        """The effective half-spread (rad): the running median, the nominal one until ``min_frames`` edges."""
+        """The effective half-spread (rad): the running median, at least the nominal one (module docstring); the
+        nominal one until ``min_frames`` edges."""
         if len(self._edges) < self.min_frames:
             return self.nominal_half
-        return float(np.median(np.fromiter(self._edges, np.float64)))
+        return max(self.nominal_half, float(np.median(np.fromiter(self._edges, np.float64))))
+
+    @property
+    def level(self) -> float:
+        """The grey level at which the seabed shows (the running median of the frames' onset levels); NaN until
+        ``min_frames`` levels. A return fainter than this is one the effective edge does not account for: a
+        reflector as bright as the seabed reaches it where the edge says, a fainter one only farther inside the
+        beam, where its placement on the edge ray would be wrong."""
+        if len(self._levels) < self.min_frames:
+            return float("nan")
+        return float(np.median(np.fromiter(self._levels, np.float64)))

@@ -1,18 +1,21 @@
 """Highlight-extension returns: per frame and beam, the first return closer than the seabed onset.
 
-Threshold (adaptive, per frame; robust to speckle and to gain changes, since both statistics scale
-with the gain): median + k * 1.4826 * MAD of the water column, i.e. the rows before the earliest seabed
+Threshold (adaptive, per frame; robust to speckle and to gain changes, since both statistics shift with the gain
+on a log display): median + k * 1.4826 * MAD of the water column, i.e. the rows before the earliest seabed
 onset of the frame (a strided grid of about ``stats_samples`` pixels), from a 256-bin histogram; the water
-column is mostly speckle, so this is the noise level, whatever objects occupy a minority of it. MAD is
-floored at one grey level. k = 4: on log-compressed frames the speckle median is ~50 with a MAD of ~10 grey
-levels (99.9 % below 85) while objects return 140-190. The threshold is at least ``min_level``.
+column is mostly background, so this is its level and spread, whatever objects occupy a minority of it. MAD is
+floored at one grey level (the display's quantization: a water column at the display's floor has a MAD of 0).
+k = 4 robust standard deviations: a Gaussian background exceeds it once in ~30,000 pixels, and the return rule
+below needs a second bin. No fixed grey level: recon (:mod:`recon.onset_stage`) raises it per range row to the
+background before the onset (:mod:`recon.water_threshold`) and to the row's own level across the fan
+(:func:`row_thresholds`).
 
 A return is a bin above the threshold with at least ``min_run`` bins above it (itself included) among the
-``run_span_m`` of range that start there: an isolated speckle pixel is ignored, while a surface seen at a
-shallow angle may be. A beam's vertical fan meets a nearly level surface (the top of a half pipe or a
-hemisphere, the seabed) at ranges that grow with the elevation, and a sonar that samples the fan with a finite
-number of rays returns such a surface as a comb of bright bins 3-15 bins apart (r d_elev / tan(elev)), not as a
-run of consecutive bins.
+``run_span_m`` of range that start there: an isolated speckle pixel is ignored, while a surface whose bins fade
+under the threshold here and there is not. A surface seen at a shallow angle (the top of a half pipe or a
+hemisphere, the seabed) is spread over a range of bins in which speckle (Rayleigh fading) darkens some, and a
+renderer that samples the beam's vertical fan with a finite number of rays returns it as a comb of bright bins
+3-15 bins apart (r d_elev / tan(elev)); neither is a run of consecutive bins.
 
 Search (vectorized over beams and frames): boolean mask ``image > thr`` limited to rows < the
 beam's onset row minus a margin, first True by ``argmax``. With ``skip`` the search reads only
@@ -42,8 +45,7 @@ MAD_SCALE = 1.4826
 
 @dataclass(frozen=True)
 class HighlightConfig:
-    k: float = 4.0  # log-compressed frames: speckle within ~35 grey levels of the median, objects 90+ above
-    min_level: int = 24
+    k: float = 4.0  # robust standard deviations above the water's median (module docstring)
     min_run: int = 2  # bins above the threshold ...
     run_span_m: float = 0.25  # ... among this much range from the return's own bin (>= min_run bins)
     margin_m: float = 0.1  # search only rows closer than onset - margin
@@ -125,8 +127,7 @@ def frame_thresholds(images: NDArray[np.uint8], stat_rows: int, cfg: HighlightCo
     dist = np.abs(np.arange(256)[None, :] - med[:, None]) + offs
     dhist = np.bincount(dist.ravel(), weights=hist.ravel(), minlength=256 * f).reshape(f, 256)
     mad = np.maximum(_hist_median(dhist.astype(np.int64)), 1).astype(np.float64)
-    thr = med + cfg.k * MAD_SCALE * mad
-    return np.maximum(thr, float(cfg.min_level))
+    return np.asarray(med + cfg.k * MAD_SCALE * mad, dtype=np.float64)
 
 
 def row_background(images: NDArray[np.uint8], n_rows: int) -> tuple[F64, F64]:

@@ -60,9 +60,12 @@ class OnsetStage:
         self._fit_frame = 0
         self._water = WaterThreshold(geometry.n_bins)  # the background before the onsets (recon.water_threshold)
 
-    def run(self, frames_before: int, images: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64) -> FrameOnsets:
+    def run(self, frames_before: int, images: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64,
+            floor: float = float("nan")) -> FrameOnsets:
         """The onsets, thresholds and seabed returns of ``images`` (F, bins, beams) at poses ``pos``, ``rot`` and
-        DVL altitudes ``alt``; ``frames_before`` counts the frames recon took before this batch."""
+        DVL altitudes ``alt``; ``frames_before`` counts the frames recon took before this batch; every row's
+        threshold is at least ``floor`` (grey levels; NaN: none), the level at which the seabed shows at the
+        effective edge (:attr:`recon.beam_edge.BeamEdge.level`)."""
         g, hc, band = self.geometry, self.config.highlight, SEABED_BAND
         onset = self._predicted(frames_before, pos, rot, alt)
         # the threshold's statistics come from the water column before the widest seabed search
@@ -75,11 +78,12 @@ class OnsetStage:
         lead_m = band.lead_m if known else band.lead_flat_m
         # the frames before these (recon.water_threshold), with ReconConfig.calibrate; else the frame's threshold
         background = histogram_thresholds(self._water.hist) if self.config.calibrate else np.full(g.n_bins, np.nan)
-        rows = np.fmax(thr[:, None], background[None, :])
+        rows = np.fmax(np.fmax(thr[:, None], background[None, :]), floor)
         sf, sb, sr = seabed_returns(g, images, onset, rows, hc.margin_m, band, lead_m)
         onset = self._tracker.correct(g, onset, sf, sb, sr)
         if self.config.calibrate:
-            rows = np.fmax(thr[:, None], self._water.update(images, onset_rows(g, onset, hc.margin_m))[None, :])
+            background = self._water.update(images, onset_rows(g, onset, hc.margin_m))
+            rows = np.fmax(np.fmax(thr[:, None], background[None, :]), floor)
         return FrameOnsets(onset, thr, rows, (sf, sb, sr))
 
     def _predicted(self, frames_before: int, pos: F64, rot: Rotation, alt: F64) -> F64:

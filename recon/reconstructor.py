@@ -48,6 +48,7 @@ from recon.seabed_band import SEABED_BAND
 from recon.seabed_evidence import add_seabed_returns, initial_dvl_points, pull_dvl_points
 from recon.seabed_memory import SeabedMemory
 from recon.seabed_texture import SEABED_TEXTURE, TexturedSeabed
+from recon.sidelobe import margin_levels, sidelobe_thresholds
 from recon.sonar_geometry import SonarGeometry
 
 __all__ = ["PoseSource", "ReconConfig", "Reconstructor"]
@@ -119,14 +120,12 @@ class Reconstructor:
         check_attitude(rot)
         alt = self.poses.altitude_at(ts)
         g = self._effective_geometry(imgs, pos, rot, alt)
-        onsets = self._onsets.run(self.frames, imgs, pos, rot, alt)  # 1. onset
+        # the grey level at which the seabed shows at the effective edge (recon.beam_edge): no return is fainter
+        floor = self.beam_edge.level if cfg.calibrate else float("nan")
+        onsets = self._onsets.run(self.frames, imgs, pos, rot, alt, floor)  # 1. onset
         hc = cfg.highlight
         limits = onset_rows(g, onsets.onset, hc.margin_m)
-        thr = onsets.row_threshold
-        if cfg.calibrate:  # what stands out of its row and the water (recon.highlight.row_thresholds)
-            med, mad = row_background(imgs, min(g.n_bins, int(limits.max(initial=0)) + run_span_bins(hc, g.bin_size)))
-            thr = thresholds_over(onsets.row_threshold, med, mad, hc.k)
-            self.interfered_frames += int(interfered_rows(med, onsets.row_threshold, limits).any(axis=1).sum())
+        thr = self._row_thresholds(imgs, onsets.row_threshold, limits) if cfg.calibrate else onsets.row_threshold
         fi, bi, ri = first_returns(imgs, limits, thr, hc, run_span_bins(hc, g.bin_size))  # 2. returns
         self.last_returns = (fi, bi, ri)
         pts = np.asarray(project(g, fi, bi, ri, pos, rot, hc.geometry, hc.dtype), dtype=np.float64)  # 3. points
@@ -141,6 +140,18 @@ class Reconstructor:
         self._t_last = max(self._t_last, float(ts.max(initial=-np.inf)))
         return int(fi.size)
 
+    def _row_thresholds(self, imgs: NDArray[np.uint8], background: F64, limits: I64) -> F64:
+        """(F, bins) thresholds of the highlight search: at least the onset stage's ``background`` (the water,
+        the seabed's onset level), what stands out of its row across the fan (recon.highlight.row_thresholds) and
+        out of the sidelobe arcs of the row's strongest return (recon.sidelobe); frames with a row bright across
+        the fan before the onsets are counted as interfered."""
+        g, cfg = self.geometry, self.config
+        n_rows = min(g.n_bins, int(limits.max(initial=0)) + run_span_bins(cfg.highlight, g.bin_size))
+        med, mad = row_background(imgs, n_rows)
+        self.interfered_frames += int(interfered_rows(med, background, limits).any(axis=1).sum())
+        thr = thresholds_over(background, med, mad, cfg.highlight.k)
+        return sidelobe_thresholds(thr, imgs, n_rows, margin_levels(cfg.sidelobe_db, cfg.display_range_db))
+
     def _effective_geometry(self, imgs: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64) -> SonarGeometry:
         """The geometry with the fan's effective lower edge (:mod:`recon.beam_edge`) after this batch's frames:
         the spread whose upper half is the estimated edge (the fan's axis, tilt and beams unchanged)."""
@@ -148,7 +159,13 @@ class Reconstructor:
         if not self.config.calibrate:
             return nominal
         point, normal = self._onsets.seabed_planes(pos, rot, alt, frames_before=self.frames)
-        half = self.beam_edge.update(frame_edges(imgs, nominal, pos, rot, point, normal), nominal.tilt)
+        # the fitted seabed's slope, through the DVL's bottom point under the vehicle: the altitude is measured
+        # there, while a tile's depth is only as good as the points around it (0.15 m too deep at the edge of a
+        # survey over a 5 deg slope, a 1.4 deg wider edge)
+        dvl = np.column_stack([pos[:, :2], pos[:, 2] + alt])
+        point = np.where(np.isfinite(alt)[:, None], dvl, point)
+        edges, levels = frame_edges(imgs, nominal, pos, rot, point, normal)
+        half = self.beam_edge.update(edges, nominal.tilt, levels)
         if half != 0.5 * self.geometry.spread:
             self.geometry = replace(nominal, spread=2.0 * half)
             self._onsets.geometry = self.geometry

@@ -41,7 +41,7 @@ def test_frame_edges_recover_the_edge_the_seabed_shows(half_deg: float, alt: flo
     nominal = SonarGeometry.from_degrees(30.0, 14.0)
     truth = replace(nominal, spread=np.radians(2.0 * half_deg))
     imgs, pos, rot, alts = _seabed_frames(truth, alt, pitch_deg, 5, np.random.default_rng(3), gain)
-    edges = np.degrees(frame_edges(imgs, nominal, pos, rot, *_flat(pos, alts)))
+    edges = np.degrees(frame_edges(imgs, nominal, pos, rot, *_flat(pos, alts))[0])
     # one range bin (0.02 m) at ~7 m moves the elevation by ~0.2 deg; the quarter-metre average is trailing
     assert np.all(np.abs(edges - half_deg) < 0.5), edges
 

@@ -80,8 +80,8 @@ def test_gain_and_speckle_robust() -> None:
         assert hp.beam.tolist() == [20]
     # a threshold from robust statistics follows the gain
     img = _frame(rng, pos, rot, 5.0, [])
-    t1 = frame_thresholds(img[None], 300, HighlightConfig(min_level=0))[0]
-    t2 = frame_thresholds((img // 2)[None], 300, HighlightConfig(min_level=0))[0]
+    t1 = frame_thresholds(img[None], 300, HighlightConfig())[0]
+    t2 = frame_thresholds((img // 2)[None], 300, HighlightConfig())[0]
     assert 0.35 < t2 / t1 < 0.65
 
 
