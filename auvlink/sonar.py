@@ -43,8 +43,9 @@ MIN_BEAMS, MAX_BEAMS = 8, 1024
 MAX_APERTURE_DEG = 130.0
 #: vertical apertures (deg) a description may hold: every data sheet of the table is 12-20 deg
 MIN_VERTICAL_DEG, MAX_VERTICAL_DEG = 1.0, 60.0
-#: most range lines of one image (the Oculus sends thousands at long ranges; 16384 bounds a typing error)
-MAX_RANGE_LINES = 16384
+#: most range lines of one image: the bound of the Oculus' image (auvlink.framing.oculus_defs.MAX_RANGES); a longer
+#: window is sampled coarser than the data sheet's resolution
+MAX_RANGE_LINES = 4096
 
 #: largest range window start and length (m): far beyond any imaging sonar's reach
 MAX_WINDOW_M = 200.0
@@ -150,6 +151,11 @@ class SonarDescription:
             return self.samples
         assert self.range_resolution_m is not None
         return max(1, min(MAX_RANGE_LINES, round(window_length_m / self.range_resolution_m)))
+
+    def image_window(self, start_m: float, length_m: float) -> tuple[float, float]:
+        """The range window (start, length, m) of the images the sonar sends for a configured window: a fixed-sample
+        sonar samples the window itself; an Oculus' range lines start at the transducer and reach the window's end."""
+        return (start_m, length_m) if self.samples is not None else (0.0, start_m + length_m)
 
     def with_beams(self, n_beams: int) -> SonarDescription:
         """The same sonar sending ``n_beams`` over the same field (an Oculus sends 256 or 512), bearings re-drawn

@@ -103,8 +103,8 @@ class SonarGeometry:
         linear fan by its field of view, an uneven one by its table) where the frames carry it.
         """
         m = mounting or DeviceMounting()
-        start, length = window if window is not None else (sonar.window_start, sonar.window_length)
         d = sonar.description
+        start, length = window if window is not None else d.image_window(sonar.window_start, sonar.window_length)
         fov = float(np.deg2rad(d.field_of_view_deg))
         if azimuths is not None:
             table: tuple[float, ...] | None = tuple(float(a) for a in np.asarray(azimuths, dtype=np.float64))

@@ -139,7 +139,8 @@ def test_wrong_sonar_key_names_the_key_and_the_fix(line: str, key: str, hint: st
 def test_recon_geometry_of_an_oculus() -> None:
     sonar = Sonar(tilt_deg=20.0, window_start=0.5, window_length=10.0, model="oculus-m750d")
     g = SonarGeometry.of(sonar)
-    assert (g.n_beams, g.n_bins) == (512, 4000)
+    assert (g.n_beams, g.n_bins) == (512, 4096)  # 0 to 10.5 m at 2.5 mm, capped at the image's 4096 lines
+    assert (g.window_start, g.window_length) == (0.0, 10.5)  # an Oculus' range lines start at the transducer
     assert np.allclose(np.degrees(g.azimuths), sonar.description.bearings_deg)
 
 

@@ -15,6 +15,8 @@ track; others give no event)                   ensemble's coordinate system), va
 ``keller``                             depth   pressure (Pa) of a F73 response, paired with its request
 ``didson``, ``aris``                   sonar   :class:`SonarPayload`: image (bins, beams) uint8, window (m),
                                                beam azimuths (rad)
+``oculus`` (SimplePingResult; the      sonar   :class:`SonarPayload`: the image (16/32-bit: its top 8 bits),
+fire echo and status give none)                window ``(0, range lines x range resolution)``, the bearing table
 ``nmea`` (GGA; RMC from a receiver     gnss    :class:`auvlink.pipeline.georef.GnssPayload`: WGS84 lat/lon
 that sends no GGA; ZDA none)                   (deg, NaN without a fix), height (m), fix quality, HDOP
 =====================================  ======  ==============================================================
@@ -36,7 +38,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from auvlink.codecs import keller
+from auvlink.codecs import keller, oculus
 from auvlink.records import Sample
 from recon.errors import GeometryError
 from recon.frames import VelocityFrame
@@ -47,7 +49,8 @@ from recon.nav import DepthSamples, DvlSamples, GyroSamples
 ROUTES: dict[str, tuple[str, str]] = {
     "pd0": ("dvl", "_pd0"), "dsp1760": ("gyro", "_dsp1760"), "dsp3000": ("gyro", "_dsp3000"),
     "dsp3000_incremental": ("gyro", "_dsp3000"), "paro": ("depth", "_paro"), "keller": ("depth", "_keller"),
-    "didson": ("sonar", "_sonar"), "aris": ("sonar", "_sonar"), "nmea": ("gnss", "_nmea")}
+    "didson": ("sonar", "_sonar"), "aris": ("sonar", "_sonar"), "oculus": ("sonar", "_oculus"),
+    "nmea": ("gnss", "_nmea")}
 #: wire formats of sonar frames
 SONAR_FORMATS: tuple[str, ...] = tuple(f for f, (kind, _) in ROUTES.items() if kind == "sonar")
 #: every wire format a pipeline stage consumes; samples of any other format give no event
@@ -172,6 +175,17 @@ class NavAdaptor:
     def _sonar(r: Any, device: str) -> SonarPayload:
         return SonarPayload(device, np.asarray(r.image), (float(r.window_start_m), float(r.window_length_m)),
                             np.asarray(r.azimuths_rad, dtype=np.float64))
+
+
+    @staticmethod
+    def _oculus(r: Any, device: str) -> SonarPayload | None:
+        if not isinstance(r, oculus.OculusPing):
+            return None
+        image = np.asarray(r.image)
+        if image.dtype != np.uint8:  # 16/32-bit samples: the top byte, the scale of an 8-bit ping
+            image = (image >> (8 * (image.dtype.itemsize - 1))).astype(np.uint8)
+        return SonarPayload(device, image, (0.0, r.n_ranges * float(r.range_resolution_m)),
+                            np.asarray(r.bearings_rad, dtype=np.float64))
 
 
 def _times(events: Sequence[Event], t0_ns: int) -> NDArray[np.float64]:

@@ -65,7 +65,7 @@ class MissionSetup:
         sonar_m = dvl_m = pressure_m = Mounting()
         gnss_m: Mounting | None = None
         for dev in config.devices:  # a later device of a role wins, as the log's re-parse did
-            if dev.name == sonar_dev or dev.format in ("didson", "aris"):
+            if dev.name == sonar_dev or dev.format in ("didson", "aris", "oculus"):
                 sonar_m = dev.mounting
             elif dev.format == "pd0":
                 dvl_m = dev.mounting
@@ -97,9 +97,10 @@ class MissionSetup:
 
 
 def sonar_geometry(setup: MissionSetup, azimuths: np.ndarray | None = None,
-                   window: tuple[float, float] | None = None) -> SonarGeometry:
-    """The :class:`recon.sonar_geometry.SonarGeometry` of this mission (the frames' own window when given)."""
-    return SonarGeometry.of(setup.sonar, setup.sonar_mounting, azimuths=azimuths, window=window)
+                   window: tuple[float, float] | None = None, n_bins: int | None = None) -> SonarGeometry:
+    """The :class:`recon.sonar_geometry.SonarGeometry` of this mission: the frames' own beam table, window (m) and
+    range lines where given, else the configured sonar model's (:attr:`auvlink.sonar.Sonar.description`)."""
+    return SonarGeometry.of(setup.sonar, setup.sonar_mounting, azimuths=azimuths, window=window, n_bins=n_bins)
 
 
 def nav_config(setup: MissionSetup) -> NavConfig:

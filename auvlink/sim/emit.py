@@ -14,6 +14,8 @@ gnss      nmea       per fix (a scene with ``[gnss]``): GGA, RMC and ZDA sentenc
                      fix quality 0 and empty while the antenna is under water)
 sonar     didson     one frame per sonar pose: :class:`~auvlink.sim.sonar_render.SonarRenderer` image,
                      the scene's window, the frame time (us) and the head's heading/pitch/roll
+          oculus     (a scene whose ``[sonar] model`` is an Oculus) one SimplePingResult V2 per pose
+                     (:mod:`auvlink.sim.oculus_ping`): the image from the transducer to the window's end
 ========  =========  ================================================================================
 
 No byte is built by hand: every frame is ``encode(build(...))`` of its codec (CAN records are
@@ -38,6 +40,7 @@ from auvlink.codecs import can_nav, didson, dsp1760, keller, paro
 from auvlink.codecs import pd0 as pd0_codec
 from auvlink.sim import gnss as gnss_sim
 from auvlink.sim.dvl import pd0_ensemble
+from auvlink.sim.oculus_ping import ping_message, sonar_format
 from auvlink.sim.sensors import Measurements, pressure_to_depth
 from auvlink.sim.sonar_render import SonarRenderer
 
@@ -47,8 +50,9 @@ Event = tuple[int, int, int, str, bytes, int | None]
 Encoder = Callable[[Measurements, int], tuple[bytes, int | None]]
 
 
-def device_formats(m: Measurements) -> dict[str, str]:
-    out = {"dvl": "pd0", "gyro": "dsp1760", "pressure": m.sensors.pressure, "can": "can", "sonar": "didson"}
+def device_formats(m: Measurements, sonar: str = "didson") -> dict[str, str]:
+    """Device name -> wire format; ``sonar`` the sonar's (:func:`sonar_format`)."""
+    out = {"dvl": "pd0", "gyro": "dsp1760", "pressure": m.sensors.pressure, "can": "can", "sonar": sonar}
     if m.gnss is not None:
         out["gnss"] = "nmea"
     return out
@@ -197,6 +201,18 @@ def sonar_frame(m: Measurements, k: int, image: np.ndarray, window_start: float,
     return didson.encode(frame), None if t is None else _ns(t)
 
 
+def sonar_message(m: Measurements, k: int, image: np.ndarray, renderer: SonarRenderer) -> tuple[bytes, int | None]:
+    """Frame ``k`` in the wire format of the scene's sonar model (DIDSON frame or Oculus ping; no sensor time)."""
+    fan, sc = renderer.geometry, renderer.scene.sonar
+    if sonar_format(sc) == "didson":
+        return sonar_frame(m, k, image, sc.window_start, sc.window_length)
+    s = m.sonar
+    raw = ping_message(fan.description, image, fan.window_end, ping_id=k, time_s=float(s.t[k]),
+                       sound_speed=m.sensors.sound_speed, fps=sc.fps,
+                       attitude_rad=(float(s.heading[k]), float(s.pitch[k]), float(s.roll[k])))
+    return raw, None
+
+
 def block_events(m: Measurements, t0: float, t1: float, renderer: SonarRenderer | None) -> list[Event]:
     """Every event with mission time in ``[t0, t1)``, sorted (see the module docstring).
 
@@ -214,11 +230,10 @@ def block_events(m: Measurements, t0: float, t1: float, renderer: SonarRenderer 
         s = m.sonar
         i0, i1 = (int(i) for i in np.searchsorted(s.t, [t0, t1], side="left"))
         if i1 > i0:
-            sc = renderer.scene.sonar
             frames = renderer.render_sequence(s.position[i0:i1], Rotation.from_matrix(s.r_wb[i0:i1]),
                                               m.seed, first_frame=i0)
             for k, image in zip(range(i0, i1), frames, strict=True):
-                raw, t_sensor = sonar_frame(m, k, image, sc.window_start, sc.window_length)
+                raw, t_sensor = sonar_message(m, k, image, renderer)
                 out.append((start + _ns(float(s.t[k])), len(subs), k, "sonar", raw, t_sensor))
     out.sort(key=lambda e: (e[0], e[1], e[2]))
     return out

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from auvlink.progress import progress_bar
-from auvlink.sim.emit import Event, block_events, device_formats
+from auvlink.sim.emit import Event, block_events, device_formats, sonar_format
 from auvlink.sim.noise import NoiseConfig, SimError
 from auvlink.sim.scene import MAX_MISSION_S, MAX_SEED, Scene
 from auvlink.sim.sensors import Measurements, measure, sample_times
@@ -189,7 +189,7 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
     if workers is not None and not 1 <= workers <= MAX_WORKERS:
         raise SimError(f"the number of workers must be in [1, {MAX_WORKERS}], got {workers}")
     n_workers = default_workers(run) if workers is None else workers
-    formats = device_formats(run.measurements)
+    formats = device_formats(run.measurements, sonar_format(run.scene.sonar))
     start = run.settings.sensors.start_ns
     meta, attachments = ground_truth(run.scene, run.settings, run.duration, truth_pose(run), formats,
                                      surface_phases(run.trajectory))

@@ -45,7 +45,12 @@ class RayFan:
         self.config = config
         self.description = description if description is not None else config.description
         self.n_beams = self.description.n_beams
-        self.n_bins = n_bins = n_bins if n_bins is not None else self.description.range_lines(config.window_length)
+        if self.description.samples is not None:  # the configured window, as DIDSON and ARIS sample it
+            start, length, end = config.window_start, config.window_length, config.window_end
+        else:  # an Oculus' range lines start at the transducer
+            start, length = self.description.image_window(config.window_start, config.window_length)
+            end = start + length
+        self.n_bins = n_bins = n_bins if n_bins is not None else self.description.range_lines(length)
         self.k = int(rays_per_beam if rays_per_beam is not None else config.rays_per_beam)
         if self.k < 2:
             raise ValueError("rays_per_beam must be >= 2 (the spread's two edges)")
@@ -63,11 +68,10 @@ class RayFan:
         self.dir_b = self.r_bs.apply(self.dir_s)
         self.dir_b_soa = np.ascontiguousarray(self.dir_b.T)  # (3, N) rows for fast per-frame math
         self.lever_arm = np.asarray(config.lever_arm, float)
-        self.window_start = config.window_start
-        self.window_end = config.window_end
-        self.bin_width = config.window_length / n_bins
-        self.range_of_bin = config.window_start + (np.arange(n_bins) + 0.5) * self.bin_width
-        self._inv_bin = n_bins / config.window_length
+        self.window_start, self.window_end = start, end
+        self.bin_width = length / n_bins
+        self.range_of_bin = start + (np.arange(n_bins) + 0.5) * self.bin_width
+        self._inv_bin = n_bins / length
 
     @property
     def n_rays(self) -> int:

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from auvlink.config import VehicleConfig, loads_config
 from auvlink.jsonutil import to_jsonable
 from auvlink.sim.object_meshes import bounding_sphere, object_pose, placed_mesh
+from auvlink.sim.oculus_ping import sonar_format
 from auvlink.sim.scene import Scene
 from auvlink.sim.seabed import SeabedSurface
 from auvlink.sim.settings import SimSettings
@@ -63,7 +64,7 @@ def vehicle_config_text(scene: Scene, settings: SimSettings) -> str:
     devices = [
         ("dvl", "pd0", s.dvl_lever_arm, s.dvl_rpy_deg), ("gyro", "dsp1760", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
         ("pressure", s.pressure, s.pressure_lever_arm, (0.0, 0.0, 0.0)),
-        ("can", "can", None, None), ("sonar", "didson", sonar.lever_arm, (0.0, 0.0, 0.0)),
+        ("can", "can", None, None), ("sonar", sonar_format(sonar), sonar.lever_arm, (0.0, 0.0, 0.0)),
     ]
     if scene.gnss is not None:
         devices.append(("gnss", "nmea", scene.gnss.lever_arm, (0.0, 0.0, 0.0)))
