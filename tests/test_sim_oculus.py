@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import socket
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -9,15 +12,21 @@ import pytest
 from scenes import scene_toml
 
 from auvlink.codecs import oculus
+from auvlink.config import loads_config
 from auvlink.framing import oculus_defs
+from auvlink.oculus_driver import OculusDriver
 from auvlink.pipeline.nav_inputs import NavAdaptor, SonarPayload
 from auvlink.pipeline.setup import MissionSetup, sonar_geometry
+from auvlink.sim.device_server import LiveResult, serve
 from auvlink.sim.mission import simulate_to_log
+from auvlink.sim.noise import SimError
 from auvlink.sim.oculus_ping import ping_message, ping_rate_code
 from auvlink.sim.scene import loads_scene
 from auvlink.sim.settings import SimSettings
 from auvlink.sim.truth import vehicle_config
+from auvlink.sim.vehicle_adapt import adapt
 from auvlink.sonar import describe
+from auvlink.virtual import free_tcp_port
 from logs_format.replay import replay_samples
 
 #: the small mission with an M750d (high mode); 5 m altitude, 30 deg tilt: the seabed from ~8 m, inside 6 + 4 m
@@ -64,3 +73,42 @@ def test_simulated_oculus_mission_reaches_recon(tmp_path: Path) -> None:
     assert setup.sonar.description.model == "oculus-m750d"
     g = sonar_geometry(setup, frame.azimuths, frame.window)
     assert (g.n_bins, g.n_beams) == frame.image.shape == (4000, 512)
+
+
+@pytest.mark.live
+def test_live_oculus_pings_only_once_fired(tmp_path: Path) -> None:
+    """``auvlink sim --live`` with an oculus device: a client that sends nothing gets nothing; the real driver,
+    which sends SimpleFire on open, gets the simulated pings on the data port."""
+    port = free_tcp_port()
+    config = loads_config(f'[[devices]]\nname = "sonar"\nformat = "oculus"\nurl = "tcp://127.0.0.1:{port}"\n\n'
+                          '[sonar]\ntilt_deg = 30.0\nspread_deg = 12.0\nwindow_start = 6.0\nwindow_length = 4.0\n'
+                          'model = "oculus-m750d"\n')
+    scene = loads_scene(scene_toml())  # a DIDSON scene: the vehicle's oculus model wins
+    stop, ready = threading.Event(), threading.Event()
+    result: list[LiveResult] = []
+    server = threading.Thread(target=lambda: result.append(serve(scene, config, duration=4.0, stop=stop, ready=ready)))
+    server.start()
+    try:
+        assert ready.wait(30.0)
+        with socket.create_connection(("127.0.0.1", port), timeout=5.0) as silent:
+            silent.settimeout(0.8)
+            with pytest.raises(TimeoutError):
+                silent.recv(1)  # not fired: the sonar stays silent
+        pings: list[oculus.OculusPing] = []
+        with OculusDriver("sonar", f"tcp://127.0.0.1:{port}").open() as driver:
+            deadline = time.monotonic() + 10.0
+            while len(pings) < 5 and time.monotonic() < deadline:
+                pings += [s.record for s in driver.read(0.2) if isinstance(s.record, oculus.OculusPing)]
+        assert len(pings) >= 5 and all(p.n_beams == 512 and p.n_ranges == 4000 for p in pings)
+        assert np.allclose(np.degrees(pings[0].bearings_rad), describe("oculus-m750d").bearings_deg, atol=1e-9)
+    finally:
+        stop.set()
+        server.join(30.0)
+    sonar = result[0].ports[0]
+    assert sonar.format == "oculus" and sonar.frames >= 5 and sonar.dropped >= 1  # held back before the fire
+
+
+def test_oculus_device_needs_an_oculus_model() -> None:
+    config = loads_config('[[devices]]\nname = "sonar"\nformat = "oculus"\nurl = "tcp://127.0.0.1:5999"\n')
+    with pytest.raises(SimError, match="model"):
+        adapt(loads_scene(scene_toml()), SimSettings(), config)

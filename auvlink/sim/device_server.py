@@ -5,7 +5,7 @@ configuration file.
 
 The configuration is the one ``auvlink record`` and ``auvlink live`` read, unchanged. Each of its
 devices is matched to a simulated instrument by its wire format (``pd0`` DVL, ``dsp1760`` gyro,
-``paro`` or ``keller`` pressure, ``can`` navigation bus, ``didson`` sonar, ``nmea`` GNSS receiver: silent
+``paro`` or ``keller`` pressure, ``can`` navigation bus, ``didson`` or ``oculus`` sonar, ``nmea`` GNSS receiver: silent
 when the scene has no ``[gnss]``) and served where its URL points:
 
 - a serial URL (``/tmp/auvlink/dvl?baudrate=115200``): a :class:`~auvlink.virtual.PtyPair` whose
@@ -16,10 +16,10 @@ when the scene has no ``[gnss]``) and served where its URL points:
   ``socketcan``) is opened as a bus and sent to;
 - ``tcp://host:port``: a TCP server there (the reader connects as a client).
 
-The configuration also describes the vehicle, so it wins over the scene: the DVL and pressure
-lever arms, the DVL mounting angles, the sonar's lever arm, tilt, spread and window, and the
-pressure sensor's kind and the GNSS antenna's lever arm come from it (the site datum is the scene's:
-it is where the world is, not the vehicle). Frames go out at ``speed`` x real time (an absolute schedule:
+The configuration also describes the vehicle, so it wins over the scene (:func:`auvlink.sim.vehicle_adapt.adapt`:
+mountings, the sonar's geometry and model, the pressure sensor's kind; the site datum is the scene's: it is
+where the world is, not the vehicle). An ``oculus`` sonar pings only once its client has sent SimpleFire
+(:class:`auvlink.sim.oculus_port.FiredSonarSink`). Frames go out at ``speed`` x real time (an absolute schedule:
 no drift) for ``duration`` s (default: the survey); :func:`serve` returns when the run ends or
 ``stop`` is set, and closes every port (the symlinks are removed). A :class:`PortHook` passed to
 :func:`serve` stands between the schedule and the ports (the live-loop tests inject faults with
@@ -33,28 +33,26 @@ import queue
 import threading
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
-from typing import IO, Any, Literal, Protocol, cast
+from dataclasses import dataclass, field
+from typing import IO, Any, Protocol
 
 import can
-from pydantic import ValidationError
 
 from auvlink.config import DeviceConfig, VehicleConfig
 from auvlink.framing.can_frames import frame_to_message
 from auvlink.sim.emit import Event, block_events
 from auvlink.sim.mission import Run, prepare
 from auvlink.sim.noise import NoiseConfig, SimError
-from auvlink.sim.scene import Scene, SonarConfig
+from auvlink.sim.oculus_port import FiredSonarSink
+from auvlink.sim.scene import Scene
 from auvlink.sim.settings import SimSettings, settings_for
 from auvlink.sim.sonar_render import SonarRenderer
+from auvlink.sim.vehicle_adapt import adapt, match_devices
 from auvlink.transports.can_bus import parse_can_url
 from auvlink.transports.tcp import TcpServerTransport, parse_address
-from auvlink.validation import config_error
 from auvlink.virtual_pty import PtyPair
 from auvlink.virtual_slcan import SlcanAdapter
 
-ROLES = {"pd0": "dvl", "dsp1760": "gyro", "paro": "pressure", "keller": "pressure", "can": "can",
-         "didson": "sonar", "nmea": "gnss"}
 BLOCK_S = 1.0
 
 
@@ -89,7 +87,8 @@ class Port:
             if not dev.url.startswith("tcp://"):
                 raise SimError(f"cannot serve the sonar on {dev.url!r}: use tcp://HOST:PORT")
             host, p = parse_address(dev.url)
-            self.sink = TcpServerTransport(f"tcp-listen://{host}:{p}").open()
+            tcp = TcpServerTransport(f"tcp-listen://{host}:{p}").open()
+            self.sink = FiredSonarSink(tcp) if self.format == "oculus" else tcp  # an Oculus pings once fired
             self.where = f"tcp://{host}:{p} (listening)"
         elif self.role == "can":
             interface, channel, options = parse_can_url(dev.url)
@@ -156,48 +155,6 @@ class PortHook(Protocol):
 class LiveResult:
     seconds: float
     ports: list[Port] = field(default_factory=list)
-
-
-def match_devices(config: VehicleConfig) -> dict[str, DeviceConfig]:
-    """Simulated role (dvl, gyro, pressure, can, sonar) -> the config's device serving it."""
-    out: dict[str, DeviceConfig] = {}
-    for dev in config.devices:
-        role = ROLES.get(dev.format)
-        if role is None:
-            raise SimError(f"device {dev.name!r}: the simulator does not emit format {dev.format!r} "
-                           f"(it emits {', '.join(ROLES)})")
-        if role in out:
-            raise SimError(f"devices {out[role].name!r} and {dev.name!r} both ask for the simulated {role}")
-        out[role] = dev
-    return out
-
-
-def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[Scene, SimSettings]:
-    """The scene and settings with the vehicle described by ``config`` (mountings, sonar geometry)."""
-    devices = match_devices(config)
-    s = settings.sensors
-    if "dvl" in devices:
-        m = devices["dvl"].mounting
-        s = replace(s, dvl_lever_arm=m.xyz, dvl_rpy_deg=m.rpy_deg)
-    if "pressure" in devices:
-        kind = devices["pressure"].format
-        if kind != "paro" and kind != "keller":
-            raise SimError(f"device {devices['pressure'].name!r}: no simulated pressure sensor speaks {kind!r}")
-        s = replace(s, pressure=cast(Literal["paro", "keller"], kind),
-                    pressure_lever_arm=devices["pressure"].mounting.xyz)
-    if "gnss" in devices and scene.gnss is not None:
-        scene = replace(scene, gnss=replace(scene.gnss, lever_arm=devices["gnss"].mounting.xyz))
-    sonar = scene.sonar
-    if "sonar" in devices:
-        sonar = replace(sonar, lever_arm=devices["sonar"].mounting.xyz)
-    if config.sonar is not None:
-        c = config.sonar
-        try:  # the simulator renders a narrower range of geometries than a vehicle config may describe
-            sonar = replace(sonar, tilt_deg=c.tilt_deg, spread_deg=c.spread_deg, window_start=c.window_start,
-                            window_length=c.window_length)
-        except ValidationError as exc:
-            raise config_error(SonarConfig, exc, "sonar.") from exc
-    return replace(scene, sonar=sonar), replace(settings, sensors=s)
 
 
 def _serial_path(url: str) -> str:
