@@ -71,3 +71,17 @@ def test_edge_never_inside_the_nominal_spread() -> None:
     assert edge.level == pytest.approx(80.0)
     edge.update(np.full(MIN_FRAMES, np.radians(12.0)), np.radians(30.0))
     assert edge.half == pytest.approx(np.radians(9.3))  # the running median of 20 edges
+
+
+@pytest.mark.parametrize("gain", [-30, 40])
+def test_edge_and_level_follow_a_gain_offset(gain: int) -> None:
+    """A gain offset (dB on a log display: grey levels added to every pixel) moves the onset's level by as much
+    and leaves the edge where it was."""
+    nominal = SonarGeometry.from_degrees(30.0, 14.0)
+    truth = replace(nominal, spread=np.radians(2.0 * 10.0))
+    imgs, pos, rot, q, nrm = _frames(truth, 5.0, 4, np.random.default_rng(8), 0, 0.05)
+    e0, l0 = frame_edges(imgs, nominal, pos, rot, q, nrm)
+    shifted = np.clip(imgs.astype(int) + gain, 0, 255).astype(np.uint8)
+    e1, l1 = frame_edges(shifted, nominal, pos, rot, q, nrm)
+    assert np.allclose(np.degrees(e1), np.degrees(e0), atol=0.3)
+    assert np.allclose(l1 - l0, gain, atol=3.0)
