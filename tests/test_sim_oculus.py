@@ -13,6 +13,7 @@ from scenes import scene_toml
 
 from auvlink.codecs import oculus
 from auvlink.config import loads_config
+from auvlink.errors import ConfigError
 from auvlink.framing import oculus_defs
 from auvlink.oculus_driver import OculusDriver
 from auvlink.pipeline.nav_inputs import NavAdaptor, SonarPayload
@@ -111,4 +112,13 @@ def test_live_oculus_pings_only_once_fired(tmp_path: Path) -> None:
 def test_oculus_device_needs_an_oculus_model() -> None:
     config = loads_config('[[devices]]\nname = "sonar"\nformat = "oculus"\nurl = "tcp://127.0.0.1:5999"\n')
     with pytest.raises(SimError, match="model"):
+        adapt(loads_scene(scene_toml()), SimSettings(), config)
+
+
+def test_aris_models_are_refused_by_the_simulator() -> None:
+    with pytest.raises(ConfigError, match=r"sonar\.model"):
+        loads_scene(scene_toml(sonar={"model": "aris3000"}))
+    config = loads_config('[[devices]]\nname = "sonar"\nformat = "didson"\nurl = "tcp://127.0.0.1:5999"\n\n'
+                          '[sonar]\ntilt_deg = 30.0\nwindow_start = 1.0\nwindow_length = 10.0\nmodel = "aris1800"\n')
+    with pytest.raises(SimError, match="aris1800"):
         adapt(loads_scene(scene_toml()), SimSettings(), config)

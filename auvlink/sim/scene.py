@@ -202,6 +202,9 @@ def parse_scene(doc: Any, source: str = "") -> Scene:
         raise ConfigError("survey", f"the mission would last {duration:.0f} s (lines x line_length / speed), "
                           f"beyond the {MAX_MISSION_S:.0f} s (12 h) limit",
                           "use fewer or shorter lines, or a higher speed")
+    if f.sonar.model in ("aris1800", "aris3000"):  # the simulator writes DIDSON frames and Oculus pings only
+        raise ConfigError("sonar.model", f"the simulator does not send {f.sonar.model} frames",
+                          "use didson, oculus-m750d or oculus-m1200d (acoustics.profile sets an ARIS-like image)")
     resolve(f.acoustics)  # the ideal profile with overrides is an error naming the key
     return Scene(seed=f.seed, seabed=f.seabed, objects=tuple(o.scene_object() for o in f.objects),
                  survey=f.survey, sonar=f.sonar, vehicle=f.vehicle, source=source, site=f.site,
