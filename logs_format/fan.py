@@ -18,7 +18,7 @@ import numpy as np
 from logs_format.profile import LogError
 
 _RANGE_NAMES = ("ranges", "ranges_m", "range_m", "range")
-_AZIMUTH_NAMES = ("azimuths", "azimuths_rad", "azimuth", "beam_angles", "beam_angles_rad")
+_AZIMUTH_NAMES = ("azimuths", "azimuths_rad", "bearings_rad", "azimuth", "beam_angles", "beam_angles_rad")
 
 
 def _attr(record: Any, names: tuple[str, ...]) -> np.ndarray | None:

@@ -28,6 +28,7 @@ from auvlink.sim.truth import vehicle_config
 from auvlink.sim.vehicle_adapt import adapt
 from auvlink.sonar import describe
 from auvlink.virtual import free_tcp_port
+from logs_format.fan import sonar_geometry as fan_geometry
 from logs_format.replay import replay_samples
 
 #: the small mission with an M750d (high mode); 5 m altitude, 30 deg tilt: the seabed from ~8 m, inside 6 + 4 m
@@ -122,3 +123,16 @@ def test_aris_models_are_refused_by_the_simulator() -> None:
                           '[sonar]\ntilt_deg = 30.0\nwindow_start = 1.0\nwindow_length = 10.0\nmodel = "aris1800"\n')
     with pytest.raises(SimError, match="aris1800"):
         adapt(loads_scene(scene_toml()), SimSettings(), config)
+
+
+def test_report_fan_reads_an_oculus_ping() -> None:
+    """The report's fan pictures (logs_format.fan) take an Oculus ping's ranges and bearing table."""
+    d = describe("oculus-m750d", "low")
+    image = np.zeros((200, d.n_beams), np.uint8)
+    ping = oculus.decode(ping_message(d, image, 20.0, ping_id=1, time_s=0.0, sound_speed=1500.0, fps=10.0,
+                                      attitude_rad=(0.0, 0.0, 0.0)))
+    geom = fan_geometry(ping)
+    assert geom is not None
+    _, ranges, azimuths = geom
+    assert ranges.shape == (200,) and ranges[-1] == pytest.approx(19.9)
+    assert np.degrees(azimuths[[0, -1]]) == pytest.approx([-65.0, 65.0])
