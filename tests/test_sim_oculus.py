@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import socket
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -22,7 +24,7 @@ from auvlink.sim.device_server import LiveResult, serve
 from auvlink.sim.mission import simulate_to_log
 from auvlink.sim.noise import SimError
 from auvlink.sim.oculus_ping import ping_message, ping_rate_code
-from auvlink.sim.scene import loads_scene
+from auvlink.sim.scene import load_default_scene, loads_scene, with_sonar_model
 from auvlink.sim.settings import SimSettings
 from auvlink.sim.truth import vehicle_config
 from auvlink.sim.vehicle_adapt import adapt
@@ -136,3 +138,17 @@ def test_report_fan_reads_an_oculus_ping() -> None:
     _, ranges, azimuths = geom
     assert ranges.shape == (200,) and ranges[-1] == pytest.approx(19.9)
     assert np.degrees(azimuths[[0, -1]]) == pytest.approx([-65.0, 65.0])
+
+
+def test_demo_scene_flown_with_another_sonar() -> None:
+    """``auvlink demo --sonar MODEL``'s scene: the model and its data-sheet vertical spread, the rest kept."""
+    base = load_default_scene()
+    scene = with_sonar_model(base, "oculus-m1200d")
+    assert (scene.sonar.model, scene.sonar.spread_deg) == ("oculus-m1200d", 12.0)
+    assert (scene.sonar.tilt_deg, scene.sonar.window_start, scene.objects) == (
+        base.sonar.tilt_deg, base.sonar.window_start, base.objects)
+    with pytest.raises(ConfigError, match="aris3000"):
+        with_sonar_model(base, "aris3000")
+    demo = subprocess.run([sys.executable, "-m", "auvlink", "demo", "--sonar", "aris3000", "--out", "unused"],
+                          capture_output=True, text=True, check=False)
+    assert demo.returncode == 2 and "--sonar" in demo.stderr

@@ -16,13 +16,15 @@ from pathlib import Path
 from auvlink.atomic import check_output_file
 from auvlink.jsonutil import dumps
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
-from auvlink.sim.scene import load_default_scene, load_scene
+from auvlink.sim.scene import SIMULATED_MODELS, load_default_scene, load_scene, with_sonar_model
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("demo-out"), help="output folder (default demo-out)")
     p.add_argument("--scene", type=Path, default=None, help="scene TOML (default: the shipped scene)")
     p.add_argument("--seed", type=int, default=None, help="override the scene's seed")
+    p.add_argument("--sonar", choices=SIMULATED_MODELS, default=None,
+                   help="fly this sonar model (high-frequency mode; default: the scene's, the shipped scene's DIDSON)")
     p.add_argument("--force", action="store_true", help="write into a non-empty output folder (replacing its files)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (counts, detections, outputs, timings) on stdout, nothing else")
@@ -47,6 +49,8 @@ def _run(args: argparse.Namespace, log: Path) -> int:
     say = sys.stderr if args.json else sys.stdout  # with --json, stdout carries the JSON object only
 
     scene = load_scene(args.scene) if args.scene else load_default_scene()
+    if args.sonar is not None:
+        scene = with_sonar_model(scene, args.sonar)
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     print(f"[1/2] simulating the mission -> {log}", file=say)

@@ -28,7 +28,7 @@ Pohang (36.0412 N, 129.3915 E), where the paper's field trial ran.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -40,7 +40,7 @@ from auvlink.errors import ConfigError
 from auvlink.geodesy import JANGIL_BAY, Datum
 from auvlink.sim.acoustics import AcousticsTable, resolve
 from auvlink.sim.gnss_config import Gnss, check_gnss
-from auvlink.sonar import MAX_LEVER_M, Sonar
+from auvlink.sonar import MAX_LEVER_M, Sonar, SonarModelName, describe
 from auvlink.validation import CONFIG, Integer, Number, Site, Vec2, Vec3, loads_toml, read_toml, validate
 
 #: Object catalog class names, in a fixed order (class index = position in this tuple).
@@ -202,13 +202,27 @@ def parse_scene(doc: Any, source: str = "") -> Scene:
         raise ConfigError("survey", f"the mission would last {duration:.0f} s (lines x line_length / speed), "
                           f"beyond the {MAX_MISSION_S:.0f} s (12 h) limit",
                           "use fewer or shorter lines, or a higher speed")
-    if f.sonar.model in ("aris1800", "aris3000"):  # the simulator writes DIDSON frames and Oculus pings only
+    if f.sonar.model is not None and f.sonar.model not in SIMULATED_MODELS:  # DIDSON frames and Oculus pings only
         raise ConfigError("sonar.model", f"the simulator does not send {f.sonar.model} frames",
-                          "use didson, oculus-m750d or oculus-m1200d (acoustics.profile sets an ARIS-like image)")
+                          f"use {', '.join(SIMULATED_MODELS)} (acoustics.profile sets an ARIS-like image)")
     resolve(f.acoustics)  # the ideal profile with overrides is an error naming the key
     return Scene(seed=f.seed, seabed=f.seabed, objects=tuple(o.scene_object() for o in f.objects),
                  survey=f.survey, sonar=f.sonar, vehicle=f.vehicle, source=source, site=f.site,
                  gnss=check_gnss(f.gnss), acoustics=f.acoustics)
+
+
+#: the sonar models the simulator sends (DIDSON frames, Oculus pings; auvlink.sim.oculus_ping.sonar_format)
+SIMULATED_MODELS: tuple[SonarModelName, ...] = ("didson", "oculus-m750d", "oculus-m1200d")
+
+
+def with_sonar_model(scene: Scene, model: SonarModelName) -> Scene:
+    """The scene flown with another sonar model (high-frequency mode): its vertical spread the model's data-sheet
+    aperture, every other sonar setting kept."""
+    if model not in SIMULATED_MODELS:
+        raise ConfigError("sonar.model", f"the simulator does not send {model} frames", f"use one of "
+                          f"{', '.join(SIMULATED_MODELS)}")
+    sonar = replace(scene.sonar, model=model, spread_deg=describe(model).vertical_aperture_deg)
+    return replace(scene, sonar=sonar)
 
 
 def load_scene(path: str | Path) -> Scene:
