@@ -16,7 +16,8 @@ time of the sample being read), in ``(receive time, arrival)`` order:
    ``clutter`` (not an object: seabed texture that survived the seabed removal; a model with that
    output, :mod:`classify.labels`): then it is counted (``rejected_clutter`` in the stats), not reported.
    A later pass fused into a rejected one (same id) is classified afresh and reported if it is an
-   object now; an object once reported stays one (its updates get the best object class);
+   object now; an object once reported stays one (its updates get the best object class, at once when its
+   evidence changed enough, else on its final cloud at :meth:`Engine.finish`: :mod:`~auvlink.pipeline.object_labels`);
 4. GNSS fixes and depth go to :class:`auvlink.pipeline.georef.Georef`: dead reckoning runs in its own
    frame D (origin: the first navigation sample); a detection is handed on in W with the start anchor
    (the pre-dive fixes), and :meth:`Engine.finish` moves every detection and the track by the drift
@@ -216,12 +217,13 @@ class Engine:
         self._emit(objs)
 
     # ------------------------------------------------------------------ objects
-    def _emit(self, objects: list[DetectedObject]) -> None:
-        """Classify ``objects``; report those that are not clutter, located in W (:class:`DetectionStore`)."""
+    def _emit(self, objects: list[DetectedObject], final: bool = False) -> None:
+        """Classify ``objects``; report those that are not clutter, located in W (:class:`DetectionStore`).
+        ``final``: the end-of-mission classification of objects already reported (no update counted)."""
         if not objects:
             return
         t0 = time.perf_counter()
-        labels = self.labeller.label(objects, self.store.reported)
+        labels = self.labeller.label(objects, self.store.reported, final)
         if self.labeller.enabled:
             self.times.add("classification", (time.perf_counter() - t0) / len(objects), len(objects))
         epoch = (self.t0_ns or 0) * 1e-9
@@ -230,9 +232,10 @@ class Engine:
                 continue
             shift = self.georef.shift(0.5 * (float(o.t_first) + float(o.t_last)), corrected=False)[0]
             det = make_detection(o, c, s, shift, epoch)
-            if not self.store.put(det, shift):
+            if not self.store.put(det, shift) and not final:
                 self.counts["updates"] = self.counts.get("updates", 0) + 1
-            self.strip_picker.pick(float(o.t_first), self.nav)
+            if not final:
+                self.strip_picker.pick(float(o.t_first), self.nav)
             if self.hooks.on_detection is not None:
                 self.hooks.on_detection(det)
 
@@ -247,6 +250,7 @@ class Engine:
             objs = self.rec.finish()
             self.times.add("clustering", time.perf_counter() - t0)
             self._emit(objs)
+            self._emit(self.labeller.take_deferred(), final=True)  # final classes on the final clouds
         self.store.finalize((self.t0_ns or 0) * 1e-9)
         return self.detections
 

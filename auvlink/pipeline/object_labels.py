@@ -7,11 +7,15 @@ an object the classifier calls clutter is not reported (its id is counted in :at
 later pass fused into it (same id) is classified afresh, and an id once reported is never made clutter.
 
 When an object is classified: the engine hands over an object only when recon finalizes it (the vehicle is past
-it) or when a later pass fused into it changes its points; there is no re-classification of a growing object
-before that. Nothing is classified twice for the same points: the class probabilities are cached by the cloud's
-content (a BLAKE2 digest of its float64 points and its seabed depth, :func:`cloud_key`), so an emission whose
-cloud did not change reuses them (:attr:`ObjectLabeller.forward_clouds` counts the clouds run through the network,
-:attr:`ObjectLabeller.cache_hits` the reused ones).
+it) or when a later pass fused into it changes its points. A reported object's later pass is classified at once only
+when its evidence changed enough to matter since its last classification: its points grew by
+:data:`RECLASSIFY_GROWTH` or more, or one axis of its extent changed by more than :data:`RECLASSIFY_EXTENT` of
+itself; otherwise it keeps its class for now and is classified on its final cloud at the end of the mission
+(:meth:`ObjectLabeller.take_deferred`, :meth:`auvlink.pipeline.engine.Engine.finish`), so the final classes are
+those of every object's final cloud. Nothing is classified twice for the same points: the class probabilities are
+cached by the cloud's content (a BLAKE2 digest of its float64 points and its seabed depth, :func:`cloud_key`), so an
+emission whose cloud did not change reuses them (:attr:`ObjectLabeller.forward_clouds` counts the clouds run through
+the network, :attr:`ObjectLabeller.cache_hits` the reused ones).
 PyTorch's threads are set for the process's role when the classifier loads (:data:`TORCH_THREADS`, passed by
 whoever knows the role: replay, live, a batch or evaluation worker).
 :func:`make_detection` turns a finalized object and its class into the :class:`Detection` handed on.
@@ -39,6 +43,11 @@ if TYPE_CHECKING:
 #: evaluation, with the other workers (demo clouds, this 2-core machine under load 3.5: 8 clouds in 0.21 s on one
 #: thread, 0.63-2.0 s on two; notes/replay_speed). Live: the frame path must not wait for a classification.
 TORCH_THREADS = {"replay": 1, "live": 1, "batch": 1}
+#: a reported object's later pass is classified at once when its points grew by this factor since its last
+#: classification (a pass that adds a quarter more points can show a side not seen before)
+RECLASSIFY_GROWTH = 1.25
+#: ... or when one axis of its extent changed by more than this fraction of itself (a new side or height seen)
+RECLASSIFY_EXTENT = 0.2
 
 
 def cloud_key(points: npt.ArrayLike, seabed_depth: float) -> bytes:
@@ -69,6 +78,9 @@ class ObjectLabeller:
         self._cache: dict[bytes, npt.NDArray[np.float32]] = {}  # cloud_key -> class probabilities
         self.forward_clouds = 0  # clouds run through the network
         self.cache_hits = 0  # clouds whose probabilities came from the cache
+        #: id -> (points, extent m, (class, score)) at its last classification
+        self._evidence: dict[int, tuple[int, npt.NDArray[np.float64], tuple[str, float]]] = {}
+        self._deferred: dict[int, DetectedObject] = {}  # id -> its latest object, classified at the end
 
     def load(self) -> None:
         """Load the classifier now (live does it before opening the ports)."""
@@ -83,19 +95,22 @@ class ObjectLabeller:
             if self.clutter_threshold is not None:
                 self.classifier.clutter_threshold = float(self.clutter_threshold)
 
-    def label(self, objects: Sequence[DetectedObject], reported: Container[int]) -> list[tuple[str, float]]:
+    def label(self, objects: Sequence[DetectedObject], reported: Container[int], final: bool = False
+              ) -> list[tuple[str, float]]:
         """(class, score) per object; :data:`classify.labels.CLUTTER` for those not to report (never an id in
-        ``reported``). The clutter set follows: an id called clutter joins it, one reported leaves it."""
+        ``reported``). The clutter set follows: an id called clutter joins it, one reported leaves it. A reported
+        object whose evidence barely changed keeps its last class (see the module doc) unless ``final``."""
         labels: list[tuple[str, float]] = [("unknown", 0.0)] * len(objects)
         if self.enabled and objects:
-            self.load()
-            clf = self.classifier
-            assert clf is not None
-            prob = self.probabilities(clf, objects)
-            labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects])
-            if clf.clutter_index is not None:
-                self.scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index],
-                                                                     strict=True)]
+            keep = [not final and int(o.id) in reported and self._small_change(o) for o in objects]
+            fresh = [o for o, k in zip(objects, keep, strict=True) if not k]
+            new = iter(self._classify(fresh, reported) if fresh else [])
+            labels = [self._evidence[int(o.id)][2] if k else next(new) for o, k in zip(objects, keep, strict=True)]
+            for o, k in zip(objects, keep, strict=True):
+                if k:
+                    self._deferred[int(o.id)] = o
+                else:
+                    self._deferred.pop(int(o.id), None)
         for o, (c, _) in zip(objects, labels, strict=True):
             if c == CLUTTER:
                 self.clutter.add(int(o.id))
@@ -103,6 +118,33 @@ class ObjectLabeller:
                 self.clutter.discard(int(o.id))
         return labels
 
+    def _small_change(self, o: DetectedObject) -> bool:
+        """True when ``o`` was classified before and has not changed enough since (the module doc's rule)."""
+        seen = self._evidence.get(int(o.id))
+        if seen is None:
+            return False
+        n, extent, _ = seen
+        grown = int(o.n_points) >= RECLASSIFY_GROWTH * n
+        moved = np.any(np.abs(np.asarray(o.extent, dtype=np.float64) - extent) > RECLASSIFY_EXTENT * extent)
+        return not (grown or bool(moved))
+
+    def _classify(self, objects: Sequence[DetectedObject], reported: Container[int]) -> list[tuple[str, float]]:
+        """Run the classifier on ``objects`` (one batch) and remember each one's evidence."""
+        self.load()
+        clf = self.classifier
+        assert clf is not None
+        prob = self.probabilities(clf, objects)
+        labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects])
+        if clf.clutter_index is not None:
+            self.scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index], strict=True)]
+        for o, lab in zip(objects, labels, strict=True):
+            self._evidence[int(o.id)] = (int(o.n_points), np.asarray(o.extent, dtype=np.float64).copy(), lab)
+        return labels
+
+    def take_deferred(self) -> list[DetectedObject]:
+        """The objects whose latest pass kept an earlier class (to classify on their final cloud), forgotten here."""
+        out, self._deferred = list(self._deferred.values()), {}
+        return out
 
     def probabilities(self, clf: Classifier, objects: Sequence[DetectedObject]) -> npt.NDArray[np.float32]:
         """Class probabilities ``(len(objects), k)``: from the cache for a cloud classified before, the others in
