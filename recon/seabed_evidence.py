@@ -2,8 +2,8 @@
 
 Three kinds of evidence, all world NED m: the DVL's bottom points (pulled from the pose source: a navigator's
 ``take_seabed_points`` up to the batch's last frame, or a trajectory's ``seabed_points`` once), the sonar's
-seabed returns at the onset (:func:`add_seabed_returns`: every :data:`~recon.seabed_memory.TEXTURE_BEAM_STEP`-th
-beam into the texture grid, every :data:`~recon.seabed_memory.PLANE_BEAM_STEP`-th beam of every
+seabed returns at the onset (:func:`add_seabed_returns`: beams :data:`~recon.seabed_memory.TEXTURE_BEAM_SPACING_DEG`
+apart into the texture grid, beams :data:`~recon.seabed_memory.PLANE_BEAM_SPACING_DEG` apart of every
 :data:`~recon.seabed_memory.PLANE_FRAME_STEP`-th frame into the tiled planes' samples) and the highlight points
 (the texture grid: seabed the onset search put before the onset).
 """
@@ -19,7 +19,13 @@ from scipy.spatial.transform import Rotation
 from recon.highlight import project
 from recon.onset_stage import FrameOnsets
 from recon.seabed_band import BandConfig
-from recon.seabed_memory import PLANE_BEAM_STEP, PLANE_FRAME_STEP, TEXTURE_BEAM_STEP, SeabedMemory
+from recon.seabed_memory import (
+    PLANE_BEAM_SPACING_DEG,
+    PLANE_FRAME_STEP,
+    TEXTURE_BEAM_SPACING_DEG,
+    SeabedMemory,
+    beam_step,
+)
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
@@ -74,8 +80,8 @@ def add_seabed_returns(memory: SeabedMemory, geometry: SonarGeometry, band: Band
     ok = near & (first[sf, sb] >= sr)
     sf, sb, sr = sf[ok], sb[ok], sr[ok]
     every_frame = (frames_before + np.arange(onset.shape[0])) % PLANE_FRAME_STEP == 0
-    dense = (sb % TEXTURE_BEAM_STEP == 0) & texture
-    sparse = (sb % PLANE_BEAM_STEP == 0) & every_frame[sf]
+    dense = (sb % beam_step(geometry.azimuths, TEXTURE_BEAM_SPACING_DEG) == 0) & texture
+    sparse = (sb % beam_step(geometry.azimuths, PLANE_BEAM_SPACING_DEG) == 0) & every_frame[sf]
     keep = dense | sparse
     sp = project(geometry, sf[keep], sb[keep], sr[keep], pos, rot, "exact")
     memory.add_texture(sp[dense[keep]])

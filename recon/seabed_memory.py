@@ -1,9 +1,9 @@
 """The seabed samples recon has seen so far, and the seabed models it fits from them.
 
 Two stores, both world NED m: the **plane samples** (the DVL's bottom points and the sparse sonar seabed
-returns, every :data:`PLANE_FRAME_STEP`-th frame and :data:`PLANE_BEAM_STEP`-th beam) behind the tiled planes
+returns, every :data:`PLANE_FRAME_STEP`-th frame, beams :data:`PLANE_BEAM_SPACING_DEG` apart) behind the tiled planes
 of :mod:`recon.seabed`, and the **texture grid** (:class:`recon.seabed_texture.SeabedCells`: per-cell sums of
-the dense seabed returns, every :data:`TEXTURE_BEAM_STEP`-th beam of every frame, the DVL points and the
+the dense seabed returns, beams :data:`TEXTURE_BEAM_SPACING_DEG` apart in every frame, the DVL points and the
 highlight points) behind :func:`recon.seabed_texture.fit_textured`. :meth:`SeabedMemory.fit` is the model of a
 poll (:class:`recon.reconstructor.Reconstructor`, and :mod:`classify.training.clutter_synth`, which runs recon's seabed
 removal on synthesized patches): tiled planes from the plane samples around the box, and on them the texture
@@ -25,11 +25,22 @@ F64 = NDArray[np.float64]
 #: sonar seabed returns of every n-th frame feed the tiled planes: at the DIDSON's 10 frames/s and 1.5 m/s, a
 #: row of plane samples every 0.75 m along track, far denser than the planes' 6 m tiles need
 PLANE_FRAME_STEP = 5
-#: ... of every n-th beam: 24 of the 96 beams, a sample every 1.2 deg across the 29 deg fan (0.2 m at 10 m)
-PLANE_BEAM_STEP = 4
-#: seabed returns of every frame, every n-th beam, feed the texture grid: 48 of the 96 beams, 0.6 deg apart
-#: (0.1 m at 10 m range), finer than its 0.5 m cells
-TEXTURE_BEAM_STEP = 2
+#: ... of the beams about this far apart (deg): a sample every 1.2 deg across the fan, 0.2 m at 10 m (every 4th
+#: beam of the DIDSON; :func:`beam_step`)
+PLANE_BEAM_SPACING_DEG = 1.2
+#: seabed returns of every frame, of the beams about this far apart (deg), feed the texture grid: 0.1 m at 10 m
+#: range, finer than its 0.5 m cells (every 2nd beam of the DIDSON)
+TEXTURE_BEAM_SPACING_DEG = 0.6
+
+
+def beam_step(azimuths: F64, spacing_deg: float) -> int:
+    """Every how many beams of a fan (azimuths in rad, port first) samples lie ``spacing_deg`` apart: the spacing
+    over the fan's mean beam spacing, rounded, at least 1 (so any beam count gives as many samples per degree)."""
+    n = int(azimuths.shape[0])
+    if n < 2:
+        return 1
+    mean_deg = float(np.degrees(abs(azimuths[-1] - azimuths[0]))) / (n - 1)
+    return max(1, round(spacing_deg / mean_deg)) if mean_deg > 0 else 1
 
 
 class SeabedMemory:

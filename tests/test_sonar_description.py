@@ -28,6 +28,7 @@ from auvlink.sonar import (
     describe,
     linear_bearings,
 )
+from recon.seabed_memory import PLANE_BEAM_SPACING_DEG, TEXTURE_BEAM_SPACING_DEG, beam_step
 from recon.sonar_geometry import SonarGeometry
 
 VEHICLE = '''[[devices]]
@@ -194,3 +195,16 @@ def test_every_data_sheet_builds() -> None:
     for model, mode in DATA_SHEETS:
         d = describe(model, mode)
         assert d.model == model and d.range_lines(10.0) >= 512
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=beam_counts, half=half_fields, law=laws)
+def test_seabed_samples_per_degree_do_not_depend_on_the_beam_count(n: int, half: float, law: object) -> None:
+    """Recon's seabed sampling strides (recon.seabed_memory.beam_step) keep samples about 1.2 / 0.6 deg apart for
+    any fan; the DIDSON keeps its every 4th / every 2nd beam."""
+    az = np.radians(law(half, n))  # type: ignore[operator]
+    for spacing in (PLANE_BEAM_SPACING_DEG, TEXTURE_BEAM_SPACING_DEG):
+        step = beam_step(az, spacing)
+        assert step >= 1 and abs(step * 2 * half / (n - 1) - spacing) <= max(spacing / 2, 2 * half / (n - 1))
+    didson_az = np.radians(DIDSON.bearings_deg)
+    assert (beam_step(didson_az, PLANE_BEAM_SPACING_DEG), beam_step(didson_az, TEXTURE_BEAM_SPACING_DEG)) == (4, 2)
