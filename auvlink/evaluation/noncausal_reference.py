@@ -34,8 +34,8 @@ def run_log_batch(log: Path, *, recon_config: ReconConfig | None = None) -> tupl
         raise AuvlinkError(f"{log}: not enough navigation to process")
     traj = dead_reckon(*data.nav_inputs(), nav_config(setup))
     times, images = data.sonar.stack()
-    rec = Reconstructor(sonar_geometry(setup, data.sonar.azimuths, data.sonar.window), traj,
-                        recon_config or default_recon_config())
+    geometry = sonar_geometry(setup, data.sonar.azimuths, data.sonar.window, n_bins=images.shape[1] or None)
+    rec = Reconstructor(geometry, traj, recon_config or default_recon_config())
     lo, hi = traj.span
     idx = np.flatnonzero((times >= lo) & (times <= hi))
     for k in range(0, idx.size, FRAME_BLOCK):
