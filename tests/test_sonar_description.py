@@ -15,8 +15,9 @@ from auvlink.codecs import aris, didson, oculus
 from auvlink.codecs.sonar_frames import describe_frame
 from auvlink.config import config_from_metadata, loads_config
 from auvlink.errors import ConfigError
+from auvlink.evaluation.draw import draw_survey
 from auvlink.pipeline.coverage import DEFAULT_HALF_FOV, onset_directions
-from auvlink.sim.scene import SonarConfig
+from auvlink.sim.scene import SIMULATED_MODELS, SonarConfig, loads_scene
 from auvlink.sim.sonar_geometry import RayFan
 from auvlink.sonar import (
     DATA_SHEETS,
@@ -208,3 +209,19 @@ def test_seabed_samples_per_degree_do_not_depend_on_the_beam_count(n: int, half:
         assert step >= 1 and abs(step * 2 * half / (n - 1) - spacing) <= max(spacing / 2, 2 * half / (n - 1))
     didson_az = np.radians(DIDSON.bearings_deg)
     assert (beam_step(didson_az, PLANE_BEAM_SPACING_DEG), beam_step(didson_az, TEXTURE_BEAM_SPACING_DEG)) == (4, 2)
+
+
+def test_random_surveys_draw_the_sonar_model_too() -> None:
+    """``sonar="random"`` flies one simulated model per survey from its own stream: the survey's other factors are
+    the DIDSON draw's; the swath and the scene follow the model's fan and vertical aperture."""
+    draws = [draw_survey(9100, i, sonar="random") for i in range(12)]
+    assert {d.sonar for d in draws} == set(SIMULATED_MODELS)
+    for i, d in enumerate(draws):
+        base = draw_survey(9100, i)
+        assert (d.depth, d.tilt_deg, d.speed, d.heading_deg) == (base.depth, base.tilt_deg, base.speed,
+                                                                  base.heading_deg)
+        scene = loads_scene(d.scene_toml())
+        assert scene.sonar.description.model == d.sonar
+        assert scene.sonar.spread_deg == describe(d.sonar).vertical_aperture_deg
+        if d.sonar != "didson":
+            assert d.swath > base.swath  # 60-70 deg fans against the DIDSON's 29

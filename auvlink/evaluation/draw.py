@@ -6,9 +6,11 @@ The space (every value uniform in its range unless said otherwise):
   simulator's own texture model: sinusoids of wavelength 0.5-8 m, :mod:`auvlink.sim.seabed`);
 - vehicle: altitude 3-7 m, speed 0.6-1.5 m/s, survey heading 0-360 deg, a water current up to
   0.1 m/s from any direction (the demo scene has 0.11 m/s);
-- sonar: tilt 20-45 deg (the DIDSON's fan and vertical spread, :data:`auvlink.sonar.DIDSON`), 5-15
-  frames/s, the range window holding the seabed onset for any look direction over the slope, with room
-  before it for a 2 m object's highlight extension;
+- sonar: a model (:func:`survey_sonar`: the DIDSON unless asked; ``random``: one of
+  :data:`auvlink.sim.scene.SIMULATED_MODELS` per survey, from its own stream so the other factors stay),
+  its fan and vertical spread (:func:`auvlink.sonar.describe`), tilt 20-45 deg, 5-15 frames/s, the range
+  window holding the seabed onset for any look direction over the slope, with room before it for a 2 m
+  object's highlight extension;
 - lawnmower: lines spaced at 40-80 % of the swath at the seabed onset (2 R sin of the half field, R
   the slant range of the onset), 3-5 lines, the line length set by the objects;
 - objects: 5-8, any class of the catalogue, any heading, centres at least 6 m apart and inside the
@@ -24,15 +26,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import Literal
 
 import numpy as np
 
-from auvlink.sim.scene import CLASSES
-from auvlink.sonar import DIDSON
+from auvlink.sim.scene import CLASSES, SIMULATED_MODELS
+from auvlink.sonar import SonarModelName, describe
 
-#: the sonar's half aperture in azimuth (deg) and vertical spread (deg): the DIDSON's data sheet (auvlink.sonar)
-HALF_APERTURE_DEG = DIDSON.half_fov_deg
-SPREAD_DEG = DIDSON.vertical_aperture_deg
 LEVER_ARM = (0.6, 0.0, 0.2)  # sonar head in the body frame (FRD, m), as in the shipped scene
 MIN_SEPARATION = 6.0  # m between object centres
 MAX_OBJECT_HEIGHT = 2.0  # m: the window starts early enough for this object's highlight extension
@@ -68,6 +68,7 @@ class SurveyDraw:
     window_length: float
     swath: float  # m, at the seabed onset on a flat seabed
     objects: tuple[tuple[str, float, float, float], ...]  # class, north, east, heading_deg
+    sonar: SonarModelName = "didson"  # the model flown (high-frequency mode)
 
     def factors(self) -> dict[str, float]:
         """The factors the results are binned by."""
@@ -88,7 +89,8 @@ class SurveyDraw:
         rows += ["[survey]", 'pattern = "lawnmower"', "origin = [0.0, 0.0]", f"heading_deg = {self.heading_deg!r}",
                  f"line_length = {self.line_length!r}", f"line_spacing = {self.line_spacing!r}",
                  f"lines = {self.lines}", f"altitude = {self.altitude!r}", f"speed = {self.speed!r}", "",
-                 "[sonar]", f"tilt_deg = {self.tilt_deg!r}", f"spread_deg = {SPREAD_DEG!r}",
+                 "[sonar]", *([f'model = "{self.sonar}"'] if self.sonar != "didson" else []),
+                 f"tilt_deg = {self.tilt_deg!r}", f"spread_deg = {describe(self.sonar).vertical_aperture_deg!r}",
                  f"window_start = {self.window_start!r}", f"window_length = {self.window_length!r}",
                  f"fps = {self.fps!r}", f"lever_arm = [{LEVER_ARM[0]!r}, {LEVER_ARM[1]!r}, {LEVER_ARM[2]!r}]", "",
                  "[vehicle]", f"current = [{self.current[0]!r}, {self.current[1]!r}]", ""]
@@ -120,9 +122,22 @@ def _place(rng: np.random.Generator, n: int, across: tuple[float, float], along:
     return None
 
 
-def draw_survey(seed: int, index: int, small: bool = False) -> SurveyDraw:
+def survey_sonar(seed: int, index: int, sonar: SonarModelName | Literal["random"] = "didson") -> SonarModelName:
+    """The sonar model of survey ``index``: ``sonar`` itself, or for ``random`` one of the simulated models drawn
+    from the survey's own stream (the other factors of the survey do not move with it)."""
+    if sonar != "random":
+        return sonar
+    rng = np.random.default_rng(np.random.SeedSequence([seed, index, 0x50AA]))
+    return SIMULATED_MODELS[int(rng.integers(len(SIMULATED_MODELS)))]
+
+
+def draw_survey(seed: int, index: int, small: bool = False,
+                sonar: SonarModelName | Literal["random"] = "didson") -> SurveyDraw:
     """Survey ``index`` of the draw seeded ``seed`` (see the module docstring). ``small``: 2 lines and
-    2 objects, the same conditions otherwise (the CI smoke test; not part of the contract)."""
+    2 objects, the same conditions otherwise (the CI smoke test; not part of the contract). ``sonar``: the
+    model flown (:func:`survey_sonar`)."""
+    model = survey_sonar(seed, index, sonar)
+    fan = describe(model)
     rng = np.random.default_rng(np.random.SeedSequence([seed, index, 0x5A17E7]))
     depth, slope, rough = _u(rng, "depth"), _u(rng, "slope_deg"), _u(rng, "roughness")
     slope_az = float(rng.uniform(0.0, 360.0))
@@ -132,16 +147,16 @@ def draw_survey(seed: int, index: int, small: bool = False) -> SurveyDraw:
     cur, cur_dir = _u(rng, "current"), float(rng.uniform(0.0, 2.0 * math.pi))
     current = (round(cur * math.cos(cur_dir), 4), round(cur * math.sin(cur_dir), 4))
     h = alt - LEVER_ARM[2]  # sonar head above the seabed
-    dep = tilt + SPREAD_DEG / 2.0
+    dep = tilt + fan.vertical_aperture_deg / 2.0
     r_flat = onset_range(h, dep)
-    swath = 2.0 * r_flat * math.sin(math.radians(HALF_APERTURE_DEG))
+    swath = 2.0 * r_flat * math.sin(math.radians(fan.half_fov_deg))
     spacing = _u(rng, "spacing_fraction") * swath
     # the seabed's rise along the line (either direction) and across it (beams at +-the half field)
     rise = math.degrees(math.atan(math.tan(math.radians(slope)) * 1.0))
     r_near, r_far = onset_range(h, dep, rise), onset_range(h, dep, -rise)
     margin_before = MAX_OBJECT_HEIGHT / math.sin(math.radians(dep)) + float(rng.uniform(1.0, 3.0))
     w_start = round(max(0.5, r_near - margin_before), 2)
-    w_len = round(r_far / math.cos(math.radians(HALF_APERTURE_DEG)) - w_start + float(rng.uniform(1.5, 4.0)), 2)
+    w_len = round(r_far / math.cos(math.radians(fan.half_fov_deg)) - w_start + float(rng.uniform(1.5, 4.0)), 2)
     reach = r_far * math.cos(math.radians(dep))  # horizontal distance of the onset ahead of the sonar
     n_obj = int(rng.integers(5, 9))
     lines = int(rng.integers(3, 6))
@@ -173,9 +188,10 @@ def draw_survey(seed: int, index: int, small: bool = False) -> SurveyDraw:
                       tilt_deg=round(tilt, 2), speed=round(speed, 3), fps=round(fps, 2),
                       heading_deg=round(heading, 1), current=current, line_spacing=round(spacing, 3),
                       lines=lines, line_length=length, window_start=w_start, window_length=w_len,
-                      swath=round(swath, 3), objects=tuple(objects))
+                      swath=round(swath, 3), objects=tuple(objects), sonar=model)
 
 
-def draw_surveys(n: int, seed: int, small: bool = False) -> list[SurveyDraw]:
-    """``n`` surveys of the draw seeded ``seed``."""
-    return [draw_survey(seed, i, small) for i in range(n)]
+def draw_surveys(n: int, seed: int, small: bool = False,
+                 sonar: SonarModelName | Literal["random"] = "didson") -> list[SurveyDraw]:
+    """``n`` surveys of the draw seeded ``seed``, flown with ``sonar`` (:func:`survey_sonar`)."""
+    return [draw_survey(seed, i, small, sonar) for i in range(n)]
