@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from auvlink.sonar import DIDSON
 from recon.errors import ReconError
 from recon.seabed import SeabedConfig, SeabedModel
 from recon.seabed_texture import SeabedCells, TextureConfig, TexturedSeabed, fit_textured
@@ -41,6 +42,13 @@ def beam_step(azimuths: F64, spacing_deg: float) -> int:
         return 1
     mean_deg = float(np.degrees(abs(azimuths[-1] - azimuths[0]))) / (n - 1)
     return max(1, round(spacing_deg / mean_deg)) if mean_deg > 0 else 1
+
+
+_DIDSON_AZIMUTHS = np.radians(np.asarray(DIDSON.bearings_deg, dtype=np.float64))
+#: the strides on the DIDSON's fan (every 4th and every 2nd of its 96 beams): the classifier's synthesis
+#: (classify.training.seabed_returns), which renders DIDSON scans, samples the seabed as recon does with them
+PLANE_BEAM_STEP = beam_step(_DIDSON_AZIMUTHS, PLANE_BEAM_SPACING_DEG)
+TEXTURE_BEAM_STEP = beam_step(_DIDSON_AZIMUTHS, TEXTURE_BEAM_SPACING_DEG)
 
 
 class SeabedMemory:
