@@ -15,7 +15,7 @@ from auvlink.codecs import aris, didson, oculus
 from auvlink.codecs.sonar_frames import describe_frame
 from auvlink.config import config_from_metadata, loads_config
 from auvlink.errors import ConfigError
-from auvlink.evaluation.draw import draw_survey
+from auvlink.evaluation.draw import draw_survey, draw_surveys, survey_sonar
 from auvlink.pipeline.coverage import DEFAULT_HALF_FOV, onset_directions
 from auvlink.sim.scene import SIMULATED_MODELS, SonarConfig, loads_scene
 from auvlink.sim.sonar_geometry import RayFan
@@ -225,3 +225,9 @@ def test_random_surveys_draw_the_sonar_model_too() -> None:
         assert scene.sonar.spread_deg == describe(d.sonar).vertical_aperture_deg
         if d.sonar != "didson":
             assert d.swath > base.swath  # 60-70 deg fans against the DIDSON's 29
+
+
+def test_survey_sonar_names_the_models() -> None:
+    assert {d.sonar for d in draw_surveys(3, 9100, small=True, sonar="oculus-m1200d")} == {"oculus-m1200d"}
+    with pytest.raises(ValueError, match="oculus-m750d"):
+        survey_sonar(1, 0, "aris3000")

@@ -18,7 +18,8 @@ objects were called (``--json``: the pooled figures as JSON). Default seed 1. ``
 acoustic conditions drawn with each survey (:mod:`auvlink.evaluation.acoustic_draw`): ``ideal`` (the default for
 now, so figures stay comparable with earlier runs), ``random`` (profile, beam patterns, sidelobes, pulse, gain,
 TVG error, noise floor, interference drawn per survey; one factor row each) or a sonar profile name; with
-``--recon`` the passes are rendered under that profile.
+``--recon`` the passes are rendered under that profile. ``--sonar MODEL``: the sonar model flown
+(:func:`auvlink.evaluation.draw.survey_sonar`; ``random``: one simulated model per survey).
 
 ``--clutter-sweep`` (with ``--surveys``): also measure the clutter threshold on those surveys
 (:mod:`auvlink.evaluation.clutter_sweep`): the figures above stay those of the model's own threshold, and a table
@@ -47,6 +48,7 @@ from auvlink.errors import AuvlinkError
 from auvlink.evaluation.acoustic_draw import SPACES
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
+from auvlink.sim.scene import SIMULATED_MODELS
 
 if TYPE_CHECKING:
     from classify.training.evaluate import EvalReport
@@ -72,6 +74,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="--surveys: acoustic conditions per survey: random (the whole acoustic space), ideal "
                         "(default for now, comparable with earlier figures; random once recon is ready) or a "
                         f"fixed sonar profile ({', '.join(SPACES[2:])})")
+    p.add_argument("--sonar", choices=(*SIMULATED_MODELS, "random"), default="didson",
+                   help="--surveys: the sonar model flown (random: one per survey; default didson)")
     p.add_argument("--clutter-sweep", action="store_true",
                    help="--surveys: also score every clutter threshold from 0.30 to 0.95 on those surveys")
     p.add_argument("--calibrated-model", type=Path, default=None, metavar="OUT.pt",
@@ -174,7 +178,7 @@ def _surveys(args: argparse.Namespace) -> int:
     result = run_surveys(args.surveys, seed, args.out, workers=args.workers, model=args.model,
                          keep_logs=args.keep_logs, progress=not args.json,
                          small=args.small, clutter_sweep=args.clutter_sweep or calibrated is not None,
-                         acoustics=args.acoustics)
+                         acoustics=args.acoustics, sonar=args.sonar)
     png = plot(result, args.out / "surveys.png")
     if args.json:
         keys = ("seed", "command", "overall", "by_factor", "by_class", "clutter_sweep")

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Literal
 
 import numpy as np
 
@@ -122,17 +121,18 @@ def _place(rng: np.random.Generator, n: int, across: tuple[float, float], along:
     return None
 
 
-def survey_sonar(seed: int, index: int, sonar: SonarModelName | Literal["random"] = "didson") -> SonarModelName:
-    """The sonar model of survey ``index``: ``sonar`` itself, or for ``random`` one of the simulated models drawn
-    from the survey's own stream (the other factors of the survey do not move with it)."""
+def survey_sonar(seed: int, index: int, sonar: str = "didson") -> SonarModelName:
+    """The sonar model of survey ``index``: ``sonar`` itself (one of the simulated models), or for ``random`` one of
+    them drawn from the survey's own stream (the other factors of the survey do not move with it)."""
     if sonar != "random":
-        return sonar
+        if sonar not in SIMULATED_MODELS:
+            raise ValueError(f"sonar {sonar!r}: use random or one of {', '.join(SIMULATED_MODELS)}")
+        return SIMULATED_MODELS[SIMULATED_MODELS.index(sonar)]
     rng = np.random.default_rng(np.random.SeedSequence([seed, index, 0x50AA]))
     return SIMULATED_MODELS[int(rng.integers(len(SIMULATED_MODELS)))]
 
 
-def draw_survey(seed: int, index: int, small: bool = False,
-                sonar: SonarModelName | Literal["random"] = "didson") -> SurveyDraw:
+def draw_survey(seed: int, index: int, small: bool = False, sonar: str = "didson") -> SurveyDraw:
     """Survey ``index`` of the draw seeded ``seed`` (see the module docstring). ``small``: 2 lines and
     2 objects, the same conditions otherwise (the CI smoke test; not part of the contract). ``sonar``: the
     model flown (:func:`survey_sonar`)."""
@@ -191,7 +191,6 @@ def draw_survey(seed: int, index: int, small: bool = False,
                       swath=round(swath, 3), objects=tuple(objects), sonar=model)
 
 
-def draw_surveys(n: int, seed: int, small: bool = False,
-                 sonar: SonarModelName | Literal["random"] = "didson") -> list[SurveyDraw]:
+def draw_surveys(n: int, seed: int, small: bool = False, sonar: str = "didson") -> list[SurveyDraw]:
     """``n`` surveys of the draw seeded ``seed``, flown with ``sonar`` (:func:`survey_sonar`)."""
     return [draw_survey(seed, i, small, sonar) for i in range(n)]

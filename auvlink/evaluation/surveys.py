@@ -117,15 +117,16 @@ def _run(job: SurveyJob) -> dict[str, Any]:
 
 def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path | None = None,
                 keep_logs: bool = False, progress: bool = True, small: bool = False,
-                clutter_sweep: bool = False, acoustics: str = "ideal") -> dict[str, Any]:
+                clutter_sweep: bool = False, acoustics: str = "ideal", sonar: str = "didson") -> dict[str, Any]:
     """Run ``n`` surveys of the draw ``seed`` into ``out``; returns (and writes) ``surveys.json``'s content.
     ``small``: the CI smoke draw (:func:`auvlink.evaluation.draw.draw_survey`); ``clutter_sweep``: see the module
-    docstring; ``acoustics``: the acoustic space (:func:`auvlink.evaluation.acoustic_draw.draw_acoustics`)."""
+    docstring; ``acoustics``: the acoustic space (:func:`auvlink.evaluation.acoustic_draw.draw_acoustics`);
+    ``sonar``: the model flown (:func:`auvlink.evaluation.draw.survey_sonar`)."""
     if model is not None:  # every field checked before the first survey is simulated (minutes)
         from classify.checkpoint import read_checkpoint
 
         read_checkpoint(model)
-    draws = draw_surveys(n, seed, small)
+    draws = draw_surveys(n, seed, small, sonar)
     at = model_threshold(model) if clutter_sweep else None
     jobs = [SurveyJob(d, out / "surveys" / f"{d.index:03d}", model, keep_logs, at,
                       draw_acoustics(acoustics, seed, d.index, d.window_length)) for d in draws]
@@ -157,7 +158,8 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
                    "small": small,
                    "command": f"auvlink eval --surveys {n} --seed {seed} --out {out}" + (" (small)" if small else "")
                    + (" --clutter-sweep" if clutter_sweep else "")
-                   + (f" --acoustics {acoustics}" if acoustics != "ideal" else "")})
+                   + (f" --acoustics {acoustics}" if acoustics != "ideal" else "")
+                   + (f" --sonar {sonar}" if sonar != "didson" else "")})
     out.mkdir(parents=True, exist_ok=True)
     (out / "surveys.json").write_text(json.dumps(to_jsonable(result), indent=1, allow_nan=True) + "\n")
     return result
