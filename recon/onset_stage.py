@@ -24,7 +24,7 @@ from recon.seabed import SeabedModel
 from recon.seabed_band import SEABED_BAND, OnsetTracker, seabed_returns
 from recon.seabed_memory import SeabedMemory
 from recon.sonar_geometry import SonarGeometry
-from recon.water_threshold import WaterThreshold, histogram_thresholds
+from recon.water_threshold import WaterThreshold
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -77,7 +77,7 @@ class OnsetStage:
         self._tracker.set_known(known)
         lead_m = band.lead_m if known else band.lead_flat_m
         # the frames before these (recon.water_threshold), with ReconConfig.calibrate; else the frame's threshold
-        background = histogram_thresholds(self._water.hist) if self.config.calibrate else np.full(g.n_bins, np.nan)
+        background = self._water.thresholds if self.config.calibrate else np.full(g.n_bins, np.nan)
         rows = np.fmax(np.fmax(thr[:, None], background[None, :]), floor)
         sf, sb, sr = seabed_returns(g, images, onset, rows, hc.margin_m, band, lead_m)
         onset = self._tracker.correct(g, onset, sf, sb, sr)

@@ -77,9 +77,12 @@ class WaterThreshold:
     def __init__(self, n_bins: int, window: float = WINDOW_FRAMES) -> None:
         self.hist = np.zeros((n_bins, 256))
         self.window = float(window)
+        #: the (bins,) thresholds of :attr:`hist` as the last :meth:`update` left it (NaN before any)
+        self.thresholds = np.full(n_bins, np.nan)
 
     def update(self, images: NDArray[np.uint8], limits: I64) -> F64:
         """Add a batch (F, bins, beams) with its onset rows ``limits`` (F, beams); the (bins,) thresholds."""
         self.hist *= np.exp(-images.shape[0] / self.window)
         self.hist += water_histogram(images, limits)
-        return histogram_thresholds(self.hist)
+        self.thresholds = histogram_thresholds(self.hist)
+        return self.thresholds
