@@ -28,11 +28,12 @@ class ReconConfig:
     front_slope_width: float = 0.25  # m: across the look direction
     far_side: FarSideConfig = field(default_factory=FarSideConfig)  # with front_slope: centroid (recon.far_side)
     # recon calibrated from the frames: the fan's lower edge estimated from the seabed onset (recon.beam_edge) in place
-    # of the nominal tilt + spread / 2, thresholds per range row from the background before the onset
-    # (recon.water_threshold) and the row across the fan (recon.highlight.row_thresholds), interfered frames counted.
-    # False: the nominal edge and the frame's water-column threshold alone (benchmarks compare the two)
+    # of the nominal tilt + spread / 2, thresholds per range row of at least the grey level at which the seabed shows
+    # there, the background before the onset (recon.water_threshold), the row across the fan
+    # (recon.highlight.row_thresholds) and the sidelobe arcs of the row's strongest return (recon.sidelobe),
+    # interfered frames counted. False: the nominal edge and the frame's water-column threshold alone (benchmarks)
     calibrate: bool = True
     # two-way sidelobe level (dB re the main lobe) below which a return in the row of a stronger one is its sidelobe
     # (recon.sidelobe): the highest of the supported sonars' (DIDSON's lens, issue 36: -25 dB; ARIS -30 dB)
     sidelobe_db: float = -25.0
-    display_range_db: float = 60.0  # dB the 8-bit log display spans (DIDSON/ARIS/Oculus viewers' default 60 dB)
+    display_range_db: float = 60.0  # dB the 8-bit log display spans (DIDSON/ARIS viewers' default)
