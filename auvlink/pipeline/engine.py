@@ -196,9 +196,10 @@ class Engine:
         return int(sel.size)
 
     def _reconstructor(self, first: SonarPayload) -> Reconstructor:
-        """Recon, made with the sonar geometry of the first usable frame ``first``."""
+        """Recon, made with the sonar geometry of the first usable frame ``first``: its beam table, window and
+        range lines (a real Oculus sends the range lines its range setting gives, not the data sheet's)."""
         if self.rec is None:
-            self.geometry = sonar_geometry(self.setup, first.azimuths, first.window)
+            self.geometry = sonar_geometry(self.setup, first.azimuths, first.window, n_bins=first.image.shape[0])
             self.rec = Reconstructor(self.geometry, self.nav, self.recon_config,
                                      dvl_max_pitch=np.radians(self.config.max_pitch_deg))
         return self.rec
