@@ -27,11 +27,15 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# The suite on both cores (pytest-xdist; a file's tests stay on one worker, so module fixtures are built once),
-# then the real-time tests (`live`) alone, so no other test competes with their clocks.
-test: $(STAMP) lint typecheck
+# The suite on both cores (pytest-xdist; a file's tests stay on one worker, so module fixtures are built once,
+# conftest.py starts the longest first), then the real-time tests (`live`) in one process, so no other test
+# competes with their clocks; mypy (one core, its report printed after them) runs beside those, which mostly wait.
+test: $(STAMP) lint
 	$(BIN)/python -m pytest -n 2 --dist loadgroup --no-loadscope-reorder -m "not live"
-	$(BIN)/python -m pytest -m live
+	@report=$$(mktemp); $(BIN)/mypy > $$report 2>&1 & mypy_pid=$$!; \
+	$(BIN)/python -m pytest -m live; live=$$?; \
+	wait $$mypy_pid; typed=$$?; echo "$(BIN)/mypy"; cat $$report; rm -f $$report; \
+	test $$live -eq 0 -a $$typed -eq 0
 
 FAST_TESTS := not slow and not live and not dask and not train and not browser
 
