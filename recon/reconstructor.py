@@ -6,7 +6,8 @@ and ``altitude_at``). A batch of frames passes recon's stages once each, in orde
 
 1. **onset** (:mod:`recon.onset_stage`): poses at the frame times, the expected seabed onset per beam and its
    correction by the seabed returns, the frame's threshold;
-2. **returns** (:func:`recon.highlight.first_returns`): per column the first return before the onset;
+2. **returns** (:func:`recon.highlight.first_returns`): per column the first return before the onset (with
+   calibration, none until the seabed's level has been measured: :attr:`recon.beam_edge.BeamEdge.level`);
 3. **points** (:func:`recon.highlight.project`, :func:`recon.range_arcs.arc_columns`): those returns on the
    highlight ray, with their range arcs;
 4. **seabed** (:mod:`recon.seabed_evidence`): the DVL's seabed points pulled from the pose source, the seabed
@@ -125,6 +126,10 @@ class Reconstructor:
         onsets = self._onsets.run(self.frames, imgs, pos, rot, alt, floor)  # 1. onset
         hc = cfg.highlight
         limits = onset_rows(g, onsets.onset, hc.margin_m)
+        if cfg.calibrate and not np.isfinite(floor):
+            # the seabed's level not measured yet (no seabed onset in the frames so far: the surface, the dive):
+            # no grey level a return must reach, no effective edge to place it on (recon.beam_edge): no returns
+            limits = np.zeros_like(limits)
         thr = self._row_thresholds(imgs, onsets.row_threshold, limits) if cfg.calibrate else onsets.row_threshold
         fi, bi, ri = first_returns(imgs, limits, thr, hc, run_span_bins(hc, g.bin_size))  # 2. returns
         self.last_returns = (fi, bi, ri)
