@@ -41,6 +41,8 @@ from recon.sonar_geometry import GeometryMode, SonarGeometry
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 MAD_SCALE = 1.4826
+#: water rows a frame threshold needs (8 rows x 24 sampled beams: a median and MAD from ~200 pixels); fewer: whole image
+MIN_STAT_ROWS = 8
 
 
 @dataclass(frozen=True)
@@ -116,7 +118,7 @@ def _hist_median(hist: NDArray[np.int64]) -> I64:
 def frame_thresholds(images: NDArray[np.uint8], stat_rows: int, cfg: HighlightConfig) -> F64:
     """Per-frame thresholds of a (F, bins, beams) uint8 stack (see the module docstring)."""
     f, n_bins, n_beams = images.shape
-    rows = n_bins if stat_rows < 8 else stat_rows
+    rows = n_bins if stat_rows < MIN_STAT_ROWS else stat_rows
     cs = 4 if n_beams >= 32 else 1
     rs = max(1, int(rows * (n_beams // cs) / max(1, cfg.stats_samples)))
     sample = images[:, :rows:rs, ::cs]

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from recon.errors import ReconError
-from recon.highlight import frame_thresholds, onset_rows
+from recon.highlight import MIN_STAT_ROWS, frame_thresholds, onset_rows
 from recon.recon_config import ReconConfig
 from recon.seabed import SeabedModel
 from recon.seabed_band import SEABED_BAND, OnsetTracker, seabed_returns
@@ -69,8 +69,8 @@ class OnsetStage:
         g, hc, band = self.geometry, self.config.highlight, SEABED_BAND
         onset = self._predicted(frames_before, pos, rot, alt)
         # the threshold's statistics come from the water column before the widest seabed search
-        water = onset_rows(g, onset, hc.margin_m + max(band.lead_m, band.lead_flat_m))
-        thr = frame_thresholds(images, int(water.min(initial=g.n_bins)), hc)
+        water = int(onset_rows(g, onset, hc.margin_m + max(band.lead_m, band.lead_flat_m)).min(initial=g.n_bins))
+        thr = frame_thresholds(images, water, hc)
         # while the seabed fitted so far spans only a few metres (the first seconds of a survey) its slope is
         # unknown (the regional plane is level; recon.seabed): search much wider
         known = self._slope_known(self._model)
@@ -82,9 +82,19 @@ class OnsetStage:
         sf, sb, sr = seabed_returns(g, images, onset, rows, hc.margin_m, band, lead_m)
         onset = self._tracker.correct(g, onset, sf, sb, sr)
         if self.config.calibrate:
-            background = self._water.update(images, onset_rows(g, onset, hc.margin_m))
-            rows = np.fmax(np.fmax(thr[:, None], background[None, :]), floor)
+            self._water.update(images, onset_rows(g, onset, hc.margin_m))
+            rows = self._highlight_rows(thr, water, floor)
         return FrameOnsets(onset, thr, rows, (sf, sb, sr))
+
+    def _highlight_rows(self, thr: F64, water_rows: int, floor: float) -> F64:
+        """(F, bins) thresholds of the highlight search with calibration: at least the background before the
+        onsets (:mod:`recon.water_threshold`), the seabed's onset level ``floor`` and the frame's threshold ``thr``
+        (F,) where that came from the water column; with fewer than ``MIN_STAT_ROWS`` water rows before the widest
+        seabed search (:func:`recon.highlight.frame_thresholds` then reads the whole image, the seabed band
+        included, and its threshold lies above the seabed's own level) the background and the level alone."""
+        background = self._water.thresholds
+        frame = thr if water_rows >= MIN_STAT_ROWS or not np.isfinite(background).any() else np.full_like(thr, np.nan)
+        return np.asarray(np.fmax(np.fmax(frame[:, None], background[None, :]), floor), dtype=np.float64)
 
     def _predicted(self, frames_before: int, pos: F64, rot: Rotation, alt: F64) -> F64:
         """Expected seabed onset per frame and beam: the fitted seabed plane where the fan looks, else a flat

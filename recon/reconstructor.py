@@ -174,6 +174,7 @@ class Reconstructor:
         if half != 0.5 * self.geometry.spread:
             self.geometry = replace(nominal, spread=2.0 * half)
             self._onsets.geometry = self.geometry
+            self._objects.spread = self.geometry.spread  # the arcs' elevations span the fan the points are placed in
         return self.geometry
 
     @property
