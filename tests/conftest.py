@@ -91,7 +91,6 @@ def no_leaked_can_buses() -> Iterator[None]:
     assert not leaked, f"test leaked virtual CAN buses (channel: count): {leaked}"
 
 
-
 #: the test files that take longest (``pytest --durations``, 2-core machine), started first in this order
 HEAVIEST_FILES = ("test_bench_smoke.py", "test_classify_default.py", "test_classify_clutter.py",
                   "test_evaluation_clutter_sweep.py", "test_batch_resume.py", "test_log_tools.py",

@@ -13,6 +13,11 @@ sys.path.insert(0, str(benchmarks_dir()))
 
 from _stage_profile import ENTRY_POINTS, profile_stage, slowest_stage
 
+#: both tests replaying under the profiler hung in CI (2026-11-27, under Reconstructor.poll and Replay.samples): past
+#: the 300 s timeout, the timeout handler never returned; skipped until the profiled replay runs in a child process
+PROFILED_REPLAY_HANGS = pytest.mark.skip(reason="a replay under cProfile inside pytest hung in CI past the 300 s "
+                                         "timeout (the handler never returned); under investigation")
+
 
 def test_slowest_stage_is_the_largest_profiled_timing() -> None:
     timings = {"start_up_s": 9.0, "total_s": 20.0, "replay_decode_s": 1.0, "clustering_s": 2.5,
@@ -24,8 +29,7 @@ def test_slowest_stage_is_the_largest_profiled_timing() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.skip(reason="hung once in CI (2026-11-27): Reconstructor.poll under cProfile ran past the 300 s timeout "
-                  "and the timeout handler never returned; a product hang is not ruled out: under investigation")
+@PROFILED_REPLAY_HANGS
 def test_profile_holds_the_stage_only(small_mission_log: Path) -> None:
     prof = profile_stage(small_mission_log, "clustering_s", top=40)
     names = [r["function"] for r in prof["top"]]
@@ -37,8 +41,7 @@ def test_profile_holds_the_stage_only(small_mission_log: Path) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.skip(reason="hung in CI (2026-11-27) like the test above: a replay under cProfile inside pytest ran "
-                  "past the 300 s timeout and the timeout handler never returned; under investigation")
+@PROFILED_REPLAY_HANGS
 def test_decode_profile_follows_the_generator(small_mission_log: Path) -> None:
     """Decoding is a generator: the profile is on for each item it yields, so the decoders show in it."""
     prof = profile_stage(small_mission_log, "replay_decode_s", top=60)
