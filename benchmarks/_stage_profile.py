@@ -1,6 +1,6 @@
 """The profile of one pipeline stage of a replay: where that stage's seconds go, function by function.
 
-Run: ``python benchmarks/_stage_profile.py LOG STAGE OUT.json`` (``bench e2e`` runs it on its survey log for the
+Run: ``python benchmarks/_stage_profile.py LOG STAGE OUT.json [TOP]`` (``bench e2e`` runs it on its survey log for the
 slowest stage of the replay it timed). The log is replayed in this process (:func:`auvlink.pipeline.process.run_log`,
 what ``auvlink replay`` runs) under one :class:`cProfile.Profile` that is switched on only while the stage's entry
 points run (:data:`ENTRY_POINTS`, the code each ``summary.json`` timing measures), so the other stages do not appear
@@ -105,26 +105,34 @@ def profile_stage(log: Path, stage: str, top: int = TOP) -> dict[str, Any]:
             "profiled_s": float(stats.total_tt), "top": funcs}  # type: ignore[attr-defined]
 
 
-def profile_in_child(log: Path, timings: dict[str, float], work: Path) -> dict[str, Any] | None:
-    """:func:`profile_stage` of the slowest stage of ``timings`` in a child process (this script; a fresh process,
-    as ``auvlink replay`` runs); None when no stage was timed or the child failed (its output in ``work``)."""
+def run_child(log: Path, stage: str, work: Path, top: int = TOP,
+              timeout_s: float | None = None) -> dict[str, Any] | None:
+    """:func:`profile_stage` in a child process (this script; a fresh process, as ``auvlink replay`` runs, with no
+    signal handler or tracer of its parent's); None when the child failed or ran past ``timeout_s`` (killed; its
+    output in ``work/stage-profile.log``)."""
     import subprocess
 
-    stage = slowest_stage(timings)
-    if stage is None:
-        return None
     out = work / "stage-profile.json"
     with open(work / "stage-profile.log", "wb") as f:
-        rc = subprocess.run([sys.executable, str(Path(__file__)), str(log), stage, str(out)], stdout=f,
-                            stderr=subprocess.STDOUT, check=False).returncode
+        try:
+            rc = subprocess.run([sys.executable, str(Path(__file__)), str(log), stage, str(out), str(top)],
+                                stdout=f, stderr=subprocess.STDOUT, check=False, timeout=timeout_s).returncode
+        except subprocess.TimeoutExpired:
+            return None
     return json.loads(out.read_text()) if rc == 0 and out.is_file() else None
 
 
+def profile_in_child(log: Path, timings: dict[str, float], work: Path) -> dict[str, Any] | None:
+    """:func:`run_child` for the slowest stage of ``timings``; None when no stage was timed or the child failed."""
+    stage = slowest_stage(timings)
+    return None if stage is None else run_child(log, stage, work)
+
+
 def main(argv: list[str]) -> int:
-    if len(argv) != 3:
-        print("usage: _stage_profile.py LOG STAGE OUT.json", file=sys.stderr)
+    if len(argv) not in (3, 4):
+        print("usage: _stage_profile.py LOG STAGE OUT.json [TOP]", file=sys.stderr)
         return 2
-    out = profile_stage(Path(argv[0]), argv[1])
+    out = profile_stage(Path(argv[0]), argv[1], top=int(argv[3]) if len(argv) == 4 else TOP)
     Path(argv[2]).write_text(json.dumps(out, indent=1))
     return 0
 

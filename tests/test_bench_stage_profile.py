@@ -11,12 +11,17 @@ from auvlink.cli.bench import benchmarks_dir
 
 sys.path.insert(0, str(benchmarks_dir()))
 
-from _stage_profile import ENTRY_POINTS, profile_stage, slowest_stage
+from _stage_profile import ENTRY_POINTS, profile_stage, run_child, slowest_stage
 
-#: both tests replaying under the profiler hung in CI (2026-11-27, under Reconstructor.poll and Replay.samples): past
-#: the 300 s timeout, the timeout handler never returned; skipped until the profiled replay runs in a child process
-PROFILED_REPLAY_HANGS = pytest.mark.skip(reason="a replay under cProfile inside pytest hung in CI past the 300 s "
-                                         "timeout (the handler never returned); under investigation")
+CHILD_TIMEOUT_S = 240.0  # under pytest-timeout's 300 s, so a stuck child fails the test with its log
+
+
+def _profile(log: Path, stage: str, top: int, work: Path) -> dict:
+    """The profiled replay in a child process, as ``bench e2e`` runs it (a profiler inside the pytest worker,
+    under pytest-timeout's signal handler, is not what users run)."""
+    prof = run_child(log, stage, work, top=top, timeout_s=CHILD_TIMEOUT_S)
+    assert prof is not None, (work / "stage-profile.log").read_text()[-3000:]
+    return prof
 
 
 def test_slowest_stage_is_the_largest_profiled_timing() -> None:
@@ -29,9 +34,8 @@ def test_slowest_stage_is_the_largest_profiled_timing() -> None:
 
 
 @pytest.mark.slow
-@PROFILED_REPLAY_HANGS
-def test_profile_holds_the_stage_only(small_mission_log: Path) -> None:
-    prof = profile_stage(small_mission_log, "clustering_s", top=40)
+def test_profile_holds_the_stage_only(small_mission_log: Path, tmp_path: Path) -> None:
+    prof = _profile(small_mission_log, "clustering_s", 40, tmp_path)
     names = [r["function"] for r in prof["top"]]
     assert any("(poll)" in n for n in names), names
     assert not any("(add_frames)" in n or "(label)" in n for n in names), names  # other stages stay out
@@ -41,10 +45,9 @@ def test_profile_holds_the_stage_only(small_mission_log: Path) -> None:
 
 
 @pytest.mark.slow
-@PROFILED_REPLAY_HANGS
-def test_decode_profile_follows_the_generator(small_mission_log: Path) -> None:
+def test_decode_profile_follows_the_generator(small_mission_log: Path, tmp_path: Path) -> None:
     """Decoding is a generator: the profile is on for each item it yields, so the decoders show in it."""
-    prof = profile_stage(small_mission_log, "replay_decode_s", top=60)
+    prof = _profile(small_mission_log, "replay_decode_s", 60, tmp_path)
     names = [r["function"] for r in prof["top"]]
     assert any("decoder.py" in n for n in names), names
     assert not any("(poll)" in n or "(add_frames)" in n for n in names), names
