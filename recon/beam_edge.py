@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from recon.exact_stats import masked_percentile, median_u8
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
@@ -62,7 +63,7 @@ WINDOW_FRAMES = 600
 MIN_FRAMES = 10
 
 
-def _envelope(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, F64]:
+def _envelope(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, NDArray[np.uint8]]:
     """The central beams' azimuths (C,) and their columns' upper envelope (F, bins, C): each row's maximum over
     the :data:`ENVELOPE_M` of range that end at it (a sampled surface's comb of bright bins and the speckle's dark
     samples fill in; a surface's first bright bin stays where it is)."""
@@ -76,7 +77,7 @@ def _envelope(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, 
         step = min(span, k - span)
         np.maximum(env[:, step:], env[:, :-step].copy(), out=env[:, step:])
         span += step
-    return az[central], env.astype(np.float64)
+    return az[central], env
 
 
 def _plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, normal: F64, az: F64
@@ -93,25 +94,25 @@ def _plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, n
     return height, a, np.broadcast_to(-n_s[:, 2:3], a.shape)
 
 
-def _levels(env: F64, no_seabed: NDArray[np.bool_]) -> tuple[F64, F64, NDArray[np.bool_]]:
+def _levels(env: NDArray[np.uint8], no_seabed: NDArray[np.bool_]) -> tuple[F64, F64, NDArray[np.bool_]]:
     """Per frame and row the water level ``N`` (F, bins), per frame the seabed level ``P`` (F,), both of the
     envelopes (F, bins, C) in grey levels, and whether that step is a seabed onset (module docstring);
     ``no_seabed`` (F, bins) the rows no seabed can return from (a prefix of each frame's rows)."""
-    prof = np.median(env, axis=2)  # (F, bins): the central beams' median (an object in a few beams is outvoted)
+    prof = median_u8(env)  # (F, bins): the central beams' median (an object in a few beams is outvoted)
     rows = np.arange(prof.shape[1], dtype=np.float64)
     h = no_seabed.sum(axis=1).astype(np.float64)  # (F,): rows before the seabed can show
     has_water = h >= 8
     near, far = rows[None, :] < 0.5 * h[:, None], no_seabed & (rows[None, :] >= 0.5 * h[:, None])
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows (no water, no seabed): NaN levels, no step
-        n_near = np.nanmedian(np.where(near, prof, np.nan), axis=1)
-        n_far = np.nanmedian(np.where(far, prof, np.nan), axis=1)
-        mad = np.nanmedian(np.abs(np.where(far, prof, np.nan) - n_far[:, None]), axis=1)
-        p_lvl = np.nanpercentile(np.where(no_seabed, np.nan, prof), 90, axis=1)
+        n_near = masked_percentile(prof, near, 50)
+        n_far = masked_percentile(prof, far, 50)
+        mad = masked_percentile(np.abs(prof - n_far[:, None]), far, 50)
+        p_lvl = masked_percentile(prof, ~no_seabed, 90)
         # the water's level along range: a line through the medians of the water's near and far halves (the
         # time-varied gain lifts the noise with range), never falling
         slope = np.where(has_water, np.maximum(0.0, (n_far - n_near) / (0.5 * h)), 0.0)
-        flat = np.nanpercentile(prof, 5, axis=1)
+        flat = np.percentile(prof, 5, axis=1)
     n_lvl = np.where(has_water, n_far, flat)[:, None] + slope[:, None] * (rows[None, :] - 0.75 * h[:, None])
     step_ok = np.nan_to_num(p_lvl - np.where(has_water, n_far, flat)) > (
         MIN_STEP_MAD * 1.4826 * np.maximum(np.where(has_water, np.nan_to_num(mad), 0.0), 1.0))

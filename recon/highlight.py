@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from recon.errors import GeometryError
+from recon.exact_stats import median_mad_u8
 from recon.frames import check_attitude
 from recon.sonar_geometry import GeometryMode, SonarGeometry
 
@@ -135,9 +136,8 @@ def frame_thresholds(images: NDArray[np.uint8], stat_rows: int, cfg: HighlightCo
 def row_background(images: NDArray[np.uint8], n_rows: int) -> tuple[F64, F64]:
     """Median and MAD (MAD floored at one grey level) over the beams of each of the first ``n_rows`` rows of a stack
     (F, bins, beams): what the fan sees at each range (objects fill a minority of the beams); (F, n_rows) each."""
-    head = images[:, :n_rows].astype(np.float64)
-    med = np.median(head, axis=2)
-    return med, np.maximum(np.median(np.abs(head - med[:, :, None]), axis=2), 1.0)
+    med, mad = median_mad_u8(np.asarray(images[:, :n_rows], dtype=np.uint8))
+    return med, np.maximum(mad, 1.0)
 
 
 def row_thresholds(images: NDArray[np.uint8], thr: F64, k: float, n_rows: int | None = None) -> F64:

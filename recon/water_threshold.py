@@ -46,8 +46,10 @@ def _quantile_rows(cum: NDArray[np.float64], q: float) -> F64:
 def water_histogram(images: NDArray[np.uint8], limits: I64) -> F64:
     """(bins, 256) counts of the grey levels of a batch (F, bins, beams) in rows < ``limits`` (F, beams)."""
     n_bins = images.shape[1]
-    rows = np.arange(n_bins)[None, :, None]
-    keys = (rows * 256 + images.astype(np.int64))[rows < limits[:, None, :]]
+    n = int(np.clip(limits.max(initial=0), 0, n_bins))  # rows past every beam's limit hold no water pixel
+    rows = np.arange(n, dtype=np.int32)[None, :, None]
+    head = images[:, :n]
+    keys = (rows * 256 + head)[rows < limits[:, None, :]]
     return np.bincount(keys, minlength=n_bins * 256).reshape(n_bins, 256).astype(np.float64)
 
 

@@ -1,0 +1,54 @@
+"""Medians and percentiles equal to numpy's, bit for bit, computed faster for recon's per-frame statistics.
+
+- Over the last axis of uint8 stacks (:func:`median_u8`, :func:`median_mad_u8`): a stable sort of 8- or 16-bit
+  integers is a radix sort in numpy, while ``np.median`` of float64 partitions. The answers are exact: the median of
+  integers is a multiple of 1/2 and the median of their absolute deviations from it a multiple of 1/4.
+- Per row over a mask (:func:`masked_percentile`): ``np.nanpercentile(np.where(valid, x, nan), q, axis=1)`` in one
+  sort instead of one Python-level call per row, with numpy's "linear" method's own arithmetic (virtual index
+  ``(m - 1) q``, its two neighbours, numpy's two-sided lerp).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+
+def _middle_sum(sorted_last: NDArray[np.integer]) -> NDArray[np.int32]:
+    """Sum of the two middle values (the one middle value twice for an odd count) along the sorted last axis."""
+    n = sorted_last.shape[-1]
+    return sorted_last[..., (n - 1) // 2].astype(np.int32) + sorted_last[..., n // 2]
+
+
+def median_u8(x: NDArray[np.uint8]) -> F64:
+    """``np.median(x, axis=-1)`` of a uint8 array (float64; the last axis must not be empty)."""
+    return _middle_sum(np.sort(x, axis=-1, kind="stable")).astype(np.float64) / 2.0
+
+
+def median_mad_u8(x: NDArray[np.uint8]) -> tuple[F64, F64]:
+    """``np.median(x, axis=-1)`` and the median of ``|x - median|`` along the last axis (float64 each)."""
+    twice_med = _middle_sum(np.sort(x, axis=-1, kind="stable")).astype(np.int16)  # 0..510
+    dev = np.abs(2 * x.astype(np.int16) - twice_med[..., None])  # twice the deviations, 0..510
+    dev.sort(axis=-1, kind="stable")
+    return twice_med.astype(np.float64) / 2.0, _middle_sum(dev).astype(np.float64) / 4.0
+
+
+def masked_percentile(x: F64, valid: NDArray[np.bool_], pct: float) -> F64:
+    """Per row of (R, n) ``x``, the ``pct`` percentile of the entries where ``valid`` (numpy's "linear" method,
+    as ``np.nanpercentile`` of the others set to NaN); NaN for rows with none."""
+    q = np.true_divide(pct, 100)
+    m = valid.sum(axis=1)
+    s = np.sort(np.where(valid, x, np.inf), axis=1)
+    virtual = (m - 1) * q
+    prev = np.floor(virtual).astype(np.intp)
+    nxt = np.minimum(prev + 1, m - 1)
+    prev, nxt = np.clip(prev, 0, None), np.clip(nxt, 0, None)
+    a = np.take_along_axis(s, prev[:, None], axis=1)[:, 0]
+    b = np.take_along_axis(s, nxt[:, None], axis=1)[:, 0]
+    t = virtual - np.floor(virtual)
+    with np.errstate(invalid="ignore", over="ignore"):  # rows with no entry: inf - inf, replaced by NaN below
+        diff = b - a
+        out = np.where(t >= 0.5, b - diff * (1 - t), a + diff * t)
+    return np.where(m > 0, out, np.nan)
