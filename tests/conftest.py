@@ -102,7 +102,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     """Schedule for the xdist workers of ``make test`` (``--dist loadgroup``): a test file is one unit (its
     module fixtures are built once), except that a test marked ``train`` is a unit of its own (it trains and
     shares nothing worth keeping). Units start longest first: ``train`` tests, then :data:`HEAVIEST_FILES`,
-    then the rest in file order, so that no long unit starts last."""
+    then the rest in file order, so that no long unit starts last. Without xdist (``-p no:xdist``) nothing."""
+    if not config.pluginmanager.has_plugin("xdist"):
+        return
     units: dict[str, list[pytest.Item]] = {}
     for item in items:
         marker = item.get_closest_marker("xdist_group")
