@@ -4,8 +4,8 @@ Geometry only (the mesh; no sonar image is rendered). The paper's shear (:mod:`c
 models the front slope for one scan direction; here it arises from the beam geometry itself, as in
 the reconstruction (``recon.highlight``, exact mode):
 
-* The sonar (96 beams, azimuth -14.5..14.5 deg, ``rays_per_beam`` rays over the vertical spread
-  ``s``, pitched down by the tilt ``t``) flies level at altitude ``A`` along the heading ``psi``,
+* The sonar (the DIDSON's beams and azimuths, :data:`auvlink.sonar.DIDSON`, ``rays_per_beam`` rays over the
+  vertical spread ``s``, pitched down by the tilt ``t``) flies level at altitude ``A`` along the heading ``psi``,
   ``L`` metres to the side of the object, every ``step_m`` metres (10 fps at 1 m/s: 0.1 m).
 * Per position and beam, every ray is cast against the mesh (Open3D) and the flat seabed ``z = 0``;
   an object hit nearer than the ray's seabed hit is a return when ``|cos|`` of its incidence angle
@@ -47,14 +47,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from auvlink.sonar import DIDSON
 from classify.training.scan_acoustics import draw_acoustics, ray_elevations, ray_weights, tvg_gain
 from classify.training.synthesis_settings import SynthesisSettings
 from recon.front_slope import replace_on_arcs
 from recon.range_arcs import arc_record
 
 F64 = npt.NDArray[np.float64]
-HALF_FOV_DEG = 14.5
-N_BEAMS = 96
+#: the fan the classifier learns: the DIDSON's (its data sheet's beams, linear over +-half the field, deg)
+N_BEAMS = DIDSON.n_beams
+HALF_FOV_DEG = DIDSON.bearings_deg[-1]
 DENSE_MAX = 20_000_000  # energy_first_return: (cells x bins) above this, the sparse search
 
 
