@@ -47,18 +47,23 @@ def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, 
     if n == 0 or arcs.shape != (n, ARC_COLUMNS):
         return p.copy()
     o, u, w, r = RangeArcs.of(arcs)
-    look = u[:, :2] / np.maximum(np.linalg.norm(u[:, :2], axis=1, keepdims=True), 1e-12)
+    norm = np.linalg.norm(u[:, :2], axis=1)
+    look = u[:, :2] / np.maximum(norm, 1e-12)[:, None]
     top = p[:, 2].copy()  # NED: the top is the smallest depth
     tree = cKDTree(p[:, :2])
-    for c0 in range(0, n, chunk):  # the pairs of `chunk` points at a time: memory bounded however dense
-        pairs = cKDTree(p[c0 : c0 + chunk, :2]).sparse_distance_matrix(tree, np.hypot(length, width),
-                                                                      output_type="ndarray")
-        i, j = pairs["i"].astype(np.int64) + c0, pairs["j"].astype(np.int64)
-        d = p[j, :2] - p[i, :2]
-        along = np.einsum("ni,ni->n", d, look[i])
-        across = np.abs(d[:, 0] * look[i, 1] - d[:, 1] * look[i, 0])
-        ok = (along >= 0.0) & (along <= length) & (across <= width)
-        np.minimum.at(top, i[ok], p[j[ok], 2])
+    # each point's look-ahead rectangle lies in the disk around its centre of radius its half-diagonal (plus a
+    # rounding margin): the pairs within that disk hold every pair the rectangle test below keeps; a ray (nearly)
+    # straight down has no look direction: the disk of radius hypot(length, width) around the point itself
+    vertical = norm < 1e-12
+    centres = np.where(vertical[:, None], p[:, :2], p[:, :2] + (0.5 * length) * look)
+    for sel, radius in ((np.flatnonzero(~vertical), np.hypot(0.5 * length, width) * (1.0 + 1e-9) + 1e-9),
+                        (np.flatnonzero(vertical), np.hypot(length, width))):
+        for c0 in range(0, sel.size, chunk):  # `chunk` points at a time: memory bounded however dense
+            idx = sel[c0 : c0 + chunk]
+            pairs = cKDTree(centres[idx]).sparse_distance_matrix(tree, radius, output_type="ndarray")
+            i, j = idx[pairs["i"].astype(np.int64)], pairs["j"].astype(np.int64)
+            higher = p[j, 2] < p[i, 2]  # only a higher point can raise the top
+            _raise_tops(top, p, look, i[higher], j[higher], length, width)
     # solve depth(phi) = o_z + r (cos phi u_z + sin phi w_z) = top on the rising branch, phi in [-s/2, s/2]
     a, b = r * u[:, 2], r * w[:, 2]
     amp = np.maximum(np.hypot(a, b), 1e-12)
@@ -69,3 +74,14 @@ def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, 
     moved = top < p[:, 2]
     return np.where(moved[:, None], q, p)
 
+
+
+def _raise_tops(top: F64, p: F64, look: F64, i: NDArray[np.int64], j: NDArray[np.int64], length: float,
+                width: float) -> None:
+    """``top[i]`` lowered (NED: raised) to the depth of each pair's point ``j`` that lies within ``length`` m
+    ahead of point ``i`` along its ``look`` direction and ``width`` m across it."""
+    d = p[j, :2] - p[i, :2]
+    along = np.einsum("ni,ni->n", d, look[i])
+    across = np.abs(d[:, 0] * look[i, 1] - d[:, 1] * look[i, 0])
+    ok = (along >= 0.0) & (along <= length) & (across <= width)
+    np.minimum.at(top, i[ok], p[j[ok], 2])
