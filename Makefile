@@ -27,15 +27,10 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# The suite on both cores (pytest-xdist; a file's tests stay on one worker, so module fixtures are built once,
-# conftest.py starts the longest first), then the real-time tests (`live`) in one process, so no other test
-# competes with their clocks; mypy (one core, its report printed after them) runs beside those, which mostly wait.
+# The whole suite (scripts/run_tests.sh): the real-time tests (`live`) at normal priority beside every other test
+# on both cores and mypy, those two at nice 10, so that the live tests' clocks see an idle machine when they need it.
 test: $(STAMP) lint
-	$(BIN)/python -m pytest -n 2 --dist loadgroup --no-loadscope-reorder -m "not live"
-	@report=$$(mktemp); $(BIN)/mypy > $$report 2>&1 & mypy_pid=$$!; \
-	$(BIN)/python -m pytest -m live; live=$$?; \
-	wait $$mypy_pid; typed=$$?; echo "$(BIN)/mypy"; cat $$report; rm -f $$report; \
-	test $$live -eq 0 -a $$typed -eq 0
+	BIN=$(BIN) bash scripts/run_tests.sh
 
 FAST_TESTS := not slow and not live and not dask and not train and not browser
 
