@@ -152,3 +152,19 @@ def test_demo_scene_flown_with_another_sonar() -> None:
     demo = subprocess.run([sys.executable, "-m", "auvlink", "demo", "--sonar", "aris3000", "--out", "unused"],
                           capture_output=True, text=True, check=False)
     assert demo.returncode == 2 and "--sonar" in demo.stderr
+
+
+def test_oculus_pings_reach_recon_pooled_to_its_sampling(tmp_path: Path) -> None:
+    """Replayed, an M750d's 512 x 4000 pings are pooled to recon's sampling (recon.image_pooling) and every ping
+    is reconstructed: none refused for its shape."""
+    from auvlink.pipeline.process import run_log
+
+    scene = loads_scene(scene_toml(sonar=SONAR))
+    log = tmp_path / "oculus.mcap"
+    simulate_to_log(scene, log, progress=False, duration=3.0, workers=1)
+    result = run_log(log, progress=False)
+    g = result.geometry
+    assert g is not None and (g.n_bins, g.n_beams) == (500, 171)  # 4000 lines / 8, 512 beams / 3
+    assert g.bin_size == pytest.approx(8 * 0.0025) and g.window_start == 0.0  # lines from the transducer on
+    recon = result.recon_stats
+    assert recon["frames_bad_shape"] == 0 and recon["frames_processed"] == 30, recon

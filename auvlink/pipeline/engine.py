@@ -51,6 +51,7 @@ from auvlink.pipeline.strip_picker import StripPicker
 from auvlink.records import Sample
 from classify.labels import CLUTTER
 from recon.cluster import DetectedObject, dbscan_labels
+from recon.image_pooling import ImagePooling
 from recon.nav import pressure_to_depth
 from recon.nav_stream import CausalNavigator
 from recon.reconstructor import ReconConfig, Reconstructor
@@ -81,7 +82,9 @@ class Engine:
         self.times = StageTimes()
         self.counts = {"frames": 0, "frames_processed": 0, "frames_without_navigation": 0, "polls": 0}
         self.rec: Reconstructor | None = None
-        self.geometry: SonarGeometry | None = None
+        self.geometry: SonarGeometry | None = None  # recon's: the frames' pooled to its sampling
+        self.pooling = ImagePooling()
+        self._frame_shape: tuple[int, int] = (0, 0)
         self._frames: list[tuple[int, SonarPayload]] = []
         self._poll_k = -1
         self._t_last = -math.inf
@@ -175,12 +178,12 @@ class Engine:
         rec = self._reconstructor(group[int(sel[0])][1])
         g = rec.geometry
         imgs = [group[i][1].image for i in sel]
-        good = [k for k, im in enumerate(imgs) if im.shape == (g.n_bins, g.n_beams) and im.dtype == np.uint8]
+        good = [k for k, im in enumerate(imgs) if im.shape == self._frame_shape and im.dtype == np.uint8]
         self.counts["frames_bad_shape"] = self.counts.get("frames_bad_shape", 0) + len(imgs) - len(good)
         if not good:
             return 0
         sel, ts = sel[good], times[sel[good]]
-        stack = np.stack([imgs[k] for k in good])
+        stack = self.pooling.apply(np.stack([imgs[k] for k in good]))  # recon's sampling (recon.image_pooling)
         rec.add_frames(ts, stack)
         if self.hooks.on_frames is not None:
             self.hooks.on_frames(g, ts, stack, rec.last_returns)
@@ -197,9 +200,14 @@ class Engine:
 
     def _reconstructor(self, first: SonarPayload) -> Reconstructor:
         """Recon, made with the sonar geometry of the first usable frame ``first``: its beam table, window and
-        range lines (a real Oculus sends the range lines its range setting gives, not the data sheet's)."""
+        range lines (a real Oculus sends the range lines its range setting gives, not the data sheet's), pooled
+        to recon's sampling (:mod:`recon.image_pooling`: an Oculus's 512 beams x 4000 lines to 128 x 512)."""
         if self.rec is None:
-            self.geometry = sonar_geometry(self.setup, first.azimuths, first.window, n_bins=first.image.shape[0])
+            frames = sonar_geometry(self.setup, first.azimuths, first.window, n_bins=first.image.shape[0])
+            self._frame_shape = (frames.n_bins, frames.n_beams)
+            width = math.radians(self.setup.sonar.description.beam_width_deg)
+            self.pooling = ImagePooling.for_geometry(frames, width)
+            self.geometry = self.pooling.geometry(frames)
             self.rec = Reconstructor(self.geometry, self.nav, self.recon_config,
                                      dvl_max_pitch=np.radians(self.config.max_pitch_deg))
         return self.rec

@@ -1,0 +1,60 @@
+"""recon.image_pooling: frames finer than recon's sampling pooled to it; DIDSON and ARIS frames untouched."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from auvlink.sonar import Sonar, describe
+from recon.image_pooling import MAX_RANGE_ROWS, ImagePooling
+from recon.sonar_geometry import SonarGeometry
+
+
+def _geometry(model: str, mode: str = "high") -> tuple[SonarGeometry, float]:
+    d = describe(model, mode)
+    sonar = Sonar(tilt_deg=30.0, spread_deg=d.vertical_aperture_deg, window_start=1.0, window_length=10.0,
+                  model=model, frequency_mode=mode)
+    return SonarGeometry.of(sonar), math.radians(d.beam_width_deg)
+
+
+@pytest.mark.parametrize("model", ["didson", "aris1800", "aris3000"])
+@pytest.mark.parametrize("mode", ["high", "low"])
+def test_fixed_sample_sonars_are_not_pooled(model: str, mode: str) -> None:
+    g, width = _geometry(model, mode)
+    pool = ImagePooling.for_geometry(g, width)
+    frames = np.random.default_rng(0).integers(0, 256, (2, g.n_bins, g.n_beams), dtype=np.uint8)
+    assert pool.identity and pool.geometry(g) is g and pool.apply(frames) is frames
+
+
+@pytest.mark.parametrize("model", ["oculus-m750d", "oculus-m1200d"])
+@pytest.mark.parametrize("mode", ["high", "low"])
+def test_oculus_frames_pooled_to_recons_sampling(model: str, mode: str) -> None:
+    g, width = _geometry(model, mode)
+    pool = ImagePooling.for_geometry(g, width)
+    pg = pool.geometry(g)
+    assert pg.n_bins <= MAX_RANGE_ROWS < g.n_bins and pg.n_beams == math.ceil(g.n_beams / pool.beams)
+    spacing = np.diff(g.azimuths)
+    assert pool.beams * spacing.max() <= width * 1.05  # a pooled beam spans about one beam width
+    assert pg.bin_size == pytest.approx(g.bin_size * pool.rows)  # the same range scale, coarser
+    assert pg.window_start == g.window_start and pg.window_length >= g.window_length
+    assert pg.azimuths[0] < 0 < pg.azimuths[-1] and np.all(np.diff(pg.azimuths) > 0)
+    assert abs(pg.azimuths[0] - g.azimuths[0]) < pool.beams * spacing.max()
+
+
+def test_a_pooled_pixel_is_the_maximum_of_its_group_and_the_first_return_keeps_its_range() -> None:
+    g = SonarGeometry.from_degrees(30.0, 12.0, n_bins=1000, n_beams=10)
+    pool = ImagePooling(rows=8, beams=3)  # 1000 rows -> 125, 10 beams -> 4 (the last group of one beam)
+    frames = np.zeros((1, 1000, 10), np.uint8)
+    frames[0, 803, 4] = 200  # a return at range row 803 in beam 4
+    frames[0, 999, 9] = 7  # the last row and beam: short groups count too
+    out = pool.apply(frames)
+    assert out.shape == (1, 125, 4) and out.dtype == np.uint8
+    assert out[0, 803 // 8, 4 // 3] == 200 and out[0, 124, 3] == 7 and int(out.sum()) == 207
+    pg = pool.geometry(g)
+    r = g.ranges[803]
+    assert abs(pg.ranges[803 // 8] - r) <= 4 * g.bin_size  # within half a pooled row of the original range
+    np.testing.assert_allclose(pg.azimuths[:3], [g.azimuths[0:3].mean(), g.azimuths[3:6].mean(),
+                                                 g.azimuths[6:9].mean()])
+    assert pg.azimuths[3] == pytest.approx(g.azimuths[9])
