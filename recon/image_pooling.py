@@ -1,14 +1,14 @@
 """Sonar images pooled to the sampling recon works at: range rows and beams finer than that, maxed together.
 
-A multibeam imaging sonar such as the Blueprint Oculus sends far finer images than recon needs: 512 beams at a
-spacing of a quarter of their own width (M750d: 0.6 deg beams every 0.137 deg) and range lines every 2.5 mm
-(4000 lines over a 10 m window), 40x the pixels of a DIDSON frame. Recon's returns, thresholds and beam-edge
-estimate are defined on the image's own statistics and metric spans, so a coarser image of the same scene gives
-the same points to within its sampling:
+Recon's thresholds, run lengths, cluster sizes and the classifier's synthesized clouds are built on the DIDSON's
+sampling (:data:`auvlink.sonar.DIDSON`: 512 samples per beam over the window, 96 beams 0.305 deg apart). A
+multibeam imaging sonar such as the Blueprint Oculus sends far finer images: 512 beams 0.137 deg apart at the
+centre of an M750d's fan and range lines every 2.5 mm (4000 over a 10 m window), 40x the pixels of a DIDSON
+frame, for the same scene. Pooled to the DIDSON's sampling it gives recon what recon was made for:
 
 - range: groups of ``rows`` lines, so that the window holds at most :data:`MAX_RANGE_ROWS`;
-- azimuth: groups of ``beams`` adjacent beams spanning no more than one beam width anywhere in the fan (beams
-  closer than their own width see overlapping sectors); the group's azimuth is the mean of its beams'.
+- azimuth: groups of ``beams`` adjacent beams, as many as fit in the DIDSON's beam spacing at the centre of the
+  fan (none where the beams are already that far apart); the group's azimuth is the mean of its beams'.
 
 Each pooled pixel is the maximum of its group (a return's first bright line and its level survive). The last
 group of an axis may be short. Pooling by (1, 1), the DIDSON's and the ARIS's case, returns the frames as they are.
@@ -22,10 +22,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from auvlink.sonar import DIDSON
 from recon.sonar_geometry import SonarGeometry
 
-#: range samples per beam recon works at: the DIDSON and ARIS data sheets' 512 samples over any window
-MAX_RANGE_ROWS = 512
+#: range samples per beam recon works at: the DIDSON data sheet's 512 samples over any window
+MAX_RANGE_ROWS = DIDSON.samples or 512
+#: beam spacing recon works at, rad: the DIDSON's (data sheet: 96 beams over 29 deg)
+BEAM_SPACING = math.radians((DIDSON.bearings_deg[-1] - DIDSON.bearings_deg[0]) / (DIDSON.n_beams - 1))
 
 
 @dataclass(frozen=True)
@@ -36,14 +39,14 @@ class ImagePooling:
     beams: int = 1
 
     @classmethod
-    def for_geometry(cls, geometry: SonarGeometry, beam_width: float | None = None) -> ImagePooling:
-        """The pooling of ``geometry``'s frames: rows to :data:`MAX_RANGE_ROWS`, beams to ``beam_width`` (rad,
-        the data sheet's -3 dB width of one beam; None: beams kept)."""
+    def for_geometry(cls, geometry: SonarGeometry, spacing: float = BEAM_SPACING) -> ImagePooling:
+        """The pooling of ``geometry``'s frames: rows to :data:`MAX_RANGE_ROWS`, beams to ``spacing`` (rad) at the
+        centre of the fan (the median spacing of its beams)."""
         rows = max(1, math.ceil(geometry.n_bins / MAX_RANGE_ROWS))
         beams = 1
-        if beam_width is not None and geometry.n_beams > 1:
-            spacing = float(np.max(np.diff(geometry.azimuths)))  # a sine-law fan is sparsest at its edges
-            beams = max(1, int(beam_width / spacing)) if spacing > 0 else 1
+        if geometry.n_beams > 1:
+            own = float(np.median(np.diff(geometry.azimuths)))
+            beams = max(1, int(spacing / own)) if own > 0 else 1
         return cls(rows, beams)
 
     @property

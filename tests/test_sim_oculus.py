@@ -164,7 +164,7 @@ def test_oculus_pings_reach_recon_pooled_to_its_sampling(tmp_path: Path) -> None
     simulate_to_log(scene, log, progress=False, duration=3.0, workers=1)
     result = run_log(log, progress=False)
     g = result.geometry
-    assert g is not None and (g.n_bins, g.n_beams) == (500, 171)  # 4000 lines / 8, 512 beams / 3
+    assert g is not None and (g.n_bins, g.n_beams) == (500, 256)  # 4000 lines / 8, 512 beams / 2
     assert g.bin_size == pytest.approx(8 * 0.0025) and g.window_start == 0.0  # lines from the transducer on
     recon = result.recon_stats
     assert recon["frames_bad_shape"] == 0 and recon["frames_processed"] == 30, recon

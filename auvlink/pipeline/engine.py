@@ -201,12 +201,11 @@ class Engine:
     def _reconstructor(self, first: SonarPayload) -> Reconstructor:
         """Recon, made with the sonar geometry of the first usable frame ``first``: its beam table, window and
         range lines (a real Oculus sends the range lines its range setting gives, not the data sheet's), pooled
-        to recon's sampling (:mod:`recon.image_pooling`: an Oculus's 512 beams x 4000 lines to 128 x 512)."""
+        to recon's sampling (:mod:`recon.image_pooling`: an M750d's 512 beams x 4000 lines to 256 x 500)."""
         if self.rec is None:
             frames = sonar_geometry(self.setup, first.azimuths, first.window, n_bins=first.image.shape[0])
             self._frame_shape = (frames.n_bins, frames.n_beams)
-            width = math.radians(self.setup.sonar.description.beam_width_deg)
-            self.pooling = ImagePooling.for_geometry(frames, width)
+            self.pooling = ImagePooling.for_geometry(frames)
             self.geometry = self.pooling.geometry(frames)
             self.rec = Reconstructor(self.geometry, self.nav, self.recon_config,
                                      dvl_max_pitch=np.radians(self.config.max_pitch_deg))
