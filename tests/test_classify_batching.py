@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 import pytest
+from labelled_objects import box_object, loaded_labeller
 
 from auvlink.pipeline.object_labels import ObjectLabeller, cloud_key
 from recon.cluster import DetectedObject
@@ -15,17 +16,12 @@ from recon.cluster import DetectedObject
 
 def _object(oid: int, n: int, seed: int) -> DetectedObject:
     """A box-like cloud of ``n`` points (NED m) 1 m over a seabed at 20 m depth."""
-    rng = np.random.default_rng(seed)
-    pts = rng.uniform([-1.0, -0.5, 18.5], [1.0, 0.5, 19.0], size=(n, 3)) + [100.0 * oid, 0.0, 0.0]
-    return DetectedObject(id=oid, centroid=pts.mean(axis=0), extent=np.ptp(pts, axis=0), points=pts, n_points=n,
-                          t_first=0.0, t_last=1.0, seabed_depth=20.0)
+    return box_object(oid, n, (-1.0, -0.5, 18.5), (1.0, 0.5, 19.0), seed, step_m=100.0)
 
 
 @pytest.fixture(scope="module")
 def labeller() -> ObjectLabeller:
-    lab = ObjectLabeller(True, None)
-    lab.load()
-    return lab
+    return loaded_labeller()
 
 
 def test_batched_probabilities_equal_per_object(labeller: ObjectLabeller) -> None:

@@ -3,26 +3,21 @@ extent axis by more than 20 %), else on its final cloud at the end (ObjectLabell
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
+from labelled_objects import SEABED_DEPTH_M, box_object, loaded_labeller
 
 from auvlink.pipeline.object_labels import RECLASSIFY_EXTENT, RECLASSIFY_GROWTH, ObjectLabeller
 from recon.cluster import DetectedObject
 
 
 def _object(oid: int, n: int, size: tuple[float, float, float], seed: int = 0) -> DetectedObject:
-    """``n`` points uniform in a box of ``size`` m resting on a seabed at 20 m (NED)."""
-    rng = np.random.default_rng(seed)
-    pts = rng.uniform(0.0, 1.0, (n, 3)) * size + [10.0 * oid, 0.0, 20.0 - size[2]]
-    return DetectedObject(id=oid, centroid=pts.mean(axis=0), extent=np.ptp(pts, axis=0), points=pts, n_points=n,
-                          t_first=0.0, t_last=1.0, seabed_depth=20.0)
+    """``n`` points uniform in a box of ``size`` m resting on the seabed (NED)."""
+    return box_object(oid, n, (0.0, 0.0, SEABED_DEPTH_M - size[2]), (size[0], size[1], SEABED_DEPTH_M), seed)
 
 
 @pytest.fixture(scope="module")
 def labeller() -> ObjectLabeller:
-    lab = ObjectLabeller(True, None)
-    lab.load()
-    return lab
+    return loaded_labeller()
 
 
 def test_small_change_keeps_the_class_until_the_end(labeller: ObjectLabeller) -> None:
