@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from auvlink import formats
+from auvlink.atomic import partial_path
 from auvlink.cli import main
 from auvlink.codecs import dsp1760
 from auvlink.config import load_config, loads_config
@@ -352,7 +353,7 @@ def test_cli_record_stops_cleanly_on_sigint(tmp_path: Path) -> None:
                                 env={**os.environ, "PYTHONPATH": str(ROOT)})
         try:
             deadline = time.monotonic() + 30
-            while not out.exists() and time.monotonic() < deadline:
+            while not partial_path(out).exists() and time.monotonic() < deadline:  # the log is open
                 time.sleep(0.05)
             time.sleep(0.5)  # drivers open
             for i in range(100):
