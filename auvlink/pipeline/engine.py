@@ -7,17 +7,16 @@ time of the sample being read), in ``(receive time, arrival)`` order:
 
 1. navigation samples go to :class:`recon.nav_stream.CausalNavigator` (a pose at t uses samples up
    to t only, and is the same number however the samples were grouped);
-2. sonar frames go to :class:`recon.reconstructor.Reconstructor` in groups of ``frame_block`` frames
-   (it pulls the DVL seabed points up to the group's last frame from the navigator), so the result depends
-   on the samples and the settings only, never on when they arrived; frames before the navigation starts or more
+2. sonar frames, pooled to recon's sampling (:mod:`recon.image_pooling`), go to the Reconstructor in groups of
+   ``frame_block`` (it pulls the DVL seabed points up to the group's last frame from the navigator): the result
+   depends on the samples and settings only, never on when they arrived; frames before the navigation or more
    than ``max_extrapolation_s`` past it are skipped and counted;
-3. every ``poll_s`` of mission time the streaming clusterer finalizes the objects the vehicle is
-   past; each is classified at once and handed to ``on_detection``, unless the classifier calls it
-   ``clutter`` (not an object: seabed texture that survived the seabed removal; a model with that
-   output, :mod:`classify.labels`): then it is counted (``rejected_clutter`` in the stats), not reported.
-   A later pass fused into a rejected one (same id) is classified afresh and reported if it is an
-   object now; an object once reported stays one (its updates get the best object class, at once when its
-   evidence changed enough, else on its final cloud at :meth:`Engine.finish`: :mod:`~auvlink.pipeline.object_labels`);
+3. every ``poll_s`` of mission time the streaming clusterer finalizes the objects the vehicle is past; each is
+   classified at once and handed to ``on_detection``, unless the classifier calls it ``clutter`` (seabed texture
+   left by the seabed removal): then it is counted (``rejected_clutter``), not reported. A later pass fused into
+   a rejected one (same id) is classified afresh and reported if it is an object now; an object once reported
+   stays one (its updates get the best object class, at once when its evidence changed enough, else on its final
+   cloud at :meth:`Engine.finish`: :mod:`~auvlink.pipeline.object_labels`);
 4. GNSS fixes and depth go to :class:`auvlink.pipeline.georef.Georef`: dead reckoning runs in its own
    frame D (origin: the first navigation sample); a detection is handed on in W with the start anchor
    (the pre-dive fixes), and :meth:`Engine.finish` moves every detection and the track by the drift
@@ -83,8 +82,7 @@ class Engine:
         self.counts = {"frames": 0, "frames_processed": 0, "frames_without_navigation": 0, "polls": 0}
         self.rec: Reconstructor | None = None
         self.geometry: SonarGeometry | None = None  # recon's: the frames' pooled to its sampling
-        self.pooling = ImagePooling()
-        self._frame_shape: tuple[int, int] = (0, 0)
+        self.pooling, self._frame_shape = ImagePooling(), (0, 0)  # (range lines, beams) of the frames
         self._frames: list[tuple[int, SonarPayload]] = []
         self._poll_k = -1
         self._t_last = -math.inf
@@ -199,9 +197,8 @@ class Engine:
         return int(sel.size)
 
     def _reconstructor(self, first: SonarPayload) -> Reconstructor:
-        """Recon, made with the sonar geometry of the first usable frame ``first``: its beam table, window and
-        range lines (a real Oculus sends the range lines its range setting gives, not the data sheet's), pooled
-        to recon's sampling (:mod:`recon.image_pooling`: an M750d's 512 beams x 4000 lines to 256 x 500)."""
+        """Recon, made with the first usable frame's beam table, window and range lines (an Oculus sends those of
+        its range setting), pooled to recon's sampling (:mod:`recon.image_pooling`: an M750d's 512 x 4000 pings)."""
         if self.rec is None:
             frames = sonar_geometry(self.setup, first.azimuths, first.window, n_bins=first.image.shape[0])
             self._frame_shape = (frames.n_bins, frames.n_beams)
