@@ -4,6 +4,7 @@
 #   kernel gives them the CPU first when they need it, so their latencies are not those of a loaded machine;
 # - every other test on both cores (pytest-xdist, conftest.py's schedule) and mypy, both at nice 10: they take
 #   what the live tests leave.
+# The suite's 15 slowest tests are listed after it (the place to look when it grows).
 # Exit status: non-zero when any of the three failed.
 set -u
 BIN=${BIN:-.venv/bin}
@@ -15,7 +16,7 @@ live_pid=$!
 nice -n 10 "$BIN/mypy" > "$work/mypy.log" 2>&1 &
 mypy_pid=$!
 echo "live tests and mypy running beside the suite; their reports follow it"
-nice -n 10 "$BIN/python" -m pytest -n 2 --dist loadgroup --no-loadscope-reorder -m "not live"
+nice -n 10 "$BIN/python" -m pytest -n 2 --dist loadgroup --no-loadscope-reorder -m "not live" --durations=15
 suite=$?
 wait "$live_pid"; live=$?
 wait "$mypy_pid"; typed=$?
