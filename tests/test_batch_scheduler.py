@@ -33,9 +33,10 @@ def _wait_for(cond: object, what: str, procs: list[subprocess.Popen[bytes]], tim
 
 
 def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
+    """Workers first, each gone before the scheduler is stopped (a worker whose scheduler is already going waits
+    for it until its own timeout)."""
     for p in reversed(procs):
         p.terminate()
-    for p in reversed(procs):
         try:
             p.wait(timeout=20)
         except subprocess.TimeoutExpired:
