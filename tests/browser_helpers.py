@@ -41,6 +41,10 @@ def chromium_or_skip() -> str:
                 "this machine could not)")
 
 
+#: browser starts tried before giving up (each waits ``timeout`` for the DevTools port)
+LAUNCHES = 2
+
+
 class HeadlessChromium:
     """One headless browser with one page (a context manager)."""
 
@@ -48,13 +52,19 @@ class HeadlessChromium:
         import websocket  # the CDP client
 
         self.timeout = timeout
-        # Chromium's helper processes (renderer, crash handler) may still write into the profile after the
-        # main one exits: the browser gets its own process group, all of it is ended before the profile goes
-        self._profile = tempfile.TemporaryDirectory(prefix="auvlink-chromium-", ignore_cleanup_errors=True)
-        self._proc = subprocess.Popen([binary, *FLAGS, f"--user-data-dir={self._profile.name}", "about:blank"],
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        for attempt in range(LAUNCHES):  # a start that never opens its port (seen once on a loaded machine): again
+            self._launch(binary)
+            try:
+                port = self._port()
+                break
+            except TimeoutError:
+                self.close()
+                if attempt == LAUNCHES - 1:
+                    raise
+            except BaseException:
+                self.close()
+                raise
         try:
-            port = self._port()
             page = self._page_target(port)
             self._ws = websocket.create_connection(page, timeout=timeout, suppress_origin=True)
         except BaseException:
@@ -65,6 +75,13 @@ class HeadlessChromium:
         self.events: list[dict[str, Any]] = []
         for method in ("Runtime.enable", "Log.enable", "Page.enable"):
             self.call(method)
+
+    def _launch(self, binary: str) -> None:
+        # Chromium's helper processes (renderer, crash handler) may still write into the profile after the
+        # main one exits: the browser gets its own process group, all of it is ended before the profile goes
+        self._profile = tempfile.TemporaryDirectory(prefix="auvlink-chromium-", ignore_cleanup_errors=True)
+        self._proc = subprocess.Popen([binary, *FLAGS, f"--user-data-dir={self._profile.name}", "about:blank"],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
 
     def _port(self) -> int:
         marker = Path(self._profile.name) / "DevToolsActivePort"
