@@ -22,14 +22,19 @@ def _middle_sum(sorted_last: NDArray[np.integer]) -> NDArray[np.int32]:
     return sorted_last[..., (n - 1) // 2].astype(np.int32) + sorted_last[..., n // 2]
 
 
+def _twice_median_u8(x: NDArray[np.uint8]) -> NDArray[np.int32]:
+    """Twice the median along the last axis of a uint8 array (an integer, 0..510)."""
+    return _middle_sum(np.sort(x, axis=-1, kind="stable"))
+
+
 def median_u8(x: NDArray[np.uint8]) -> F64:
     """``np.median(x, axis=-1)`` of a uint8 array (float64; the last axis must not be empty)."""
-    return _middle_sum(np.sort(x, axis=-1, kind="stable")).astype(np.float64) / 2.0
+    return _twice_median_u8(x).astype(np.float64) / 2.0
 
 
 def median_mad_u8(x: NDArray[np.uint8]) -> tuple[F64, F64]:
     """``np.median(x, axis=-1)`` and the median of ``|x - median|`` along the last axis (float64 each)."""
-    twice_med = _middle_sum(np.sort(x, axis=-1, kind="stable")).astype(np.int16)  # 0..510
+    twice_med = _twice_median_u8(x).astype(np.int16)  # 0..510
     dev = np.abs(2 * x.astype(np.int16) - twice_med[..., None])  # twice the deviations, 0..510
     dev.sort(axis=-1, kind="stable")
     return twice_med.astype(np.float64) / 2.0, _middle_sum(dev).astype(np.float64) / 4.0

@@ -75,7 +75,6 @@ def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, 
     return np.where(moved[:, None], q, p)
 
 
-
 def _raise_tops(top: F64, p: F64, look: F64, i: NDArray[np.int64], j: NDArray[np.int64], length: float,
                 width: float) -> None:
     """``top[i]`` lowered (NED: raised) to the depth of each pair's point ``j`` that lies within ``length`` m
