@@ -26,7 +26,7 @@ from auvlink.sonar import DIDSON
 from recon.sonar_geometry import SonarGeometry
 
 #: range samples per beam recon works at: the DIDSON data sheet's 512 samples over any window
-MAX_RANGE_ROWS = DIDSON.samples or 512
+MAX_RANGE_ROWS = DIDSON.range_lines(DIDSON.max_range_m)
 #: beam spacing recon works at, rad: the DIDSON's (data sheet: 96 beams over 29 deg)
 BEAM_SPACING = math.radians((DIDSON.bearings_deg[-1] - DIDSON.bearings_deg[0]) / (DIDSON.n_beams - 1))
 
@@ -69,8 +69,10 @@ class ImagePooling:
             return frames
         f, n_bins, n_beams = frames.shape
         nr, nb = math.ceil(n_bins / self.rows), math.ceil(n_beams / self.beams)
-        padded = np.zeros((f, nr * self.rows, nb * self.beams), np.uint8)  # 0: below every return
-        padded[:, :n_bins, :n_beams] = frames
+        padded = frames
+        if (nr * self.rows, nb * self.beams) != (n_bins, n_beams):  # short last groups: 0, below every return
+            padded = np.zeros((f, nr * self.rows, nb * self.beams), np.uint8)
+            padded[:, :n_bins, :n_beams] = frames
         return np.asarray(padded.reshape(f, nr, self.rows, nb, self.beams).max(axis=(2, 4)), np.uint8)
 
 
