@@ -121,3 +121,23 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         return (0 if unit[0].get_closest_marker("train") else 1, heavy)
 
     items[:] = [i for unit in sorted(units.values(), key=rank) for i in unit]
+
+
+UNGROUPED = pytest.StashKey[bool]()
+
+
+@pytest.hookimpl(trylast=True)  # after xdist's own hook, which appends each item's group to its node id
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """On an xdist worker of ``--dist loadgroup``: note when xdist could not name the items' groups (no node id
+    carries ``@group``, as with pytest 9.2, whose node ids xdist 3.8 cannot extend): every test would go to any
+    worker, and each worker build every module fixture of a file again (``make test`` minutes longer)."""
+    config = session.config
+    if hasattr(config, "workerinput") and getattr(config.option, "loadgroup", False) and session.items:
+        config.stash[UNGROUPED] = not any("@" in item.nodeid for item in session.items)
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """Fail every test of a worker whose tests are not grouped (:func:`pytest_collection_finish`), saying why."""
+    if item.config.stash.get(UNGROUPED, False):
+        pytest.fail(f"pytest-xdist's --dist loadgroup found no test groups under pytest {pytest.__version__}: "
+                    "keep pytest at the version pyproject.toml's dev extra pins", pytrace=False)
