@@ -38,6 +38,7 @@ from recon.errors import GeometryError
 from recon.exact_stats import median_mad_u8
 from recon.frames import check_attitude
 from recon.sonar_geometry import GeometryMode, SonarGeometry
+from recon.water_threshold import speckle_upper
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -140,25 +141,25 @@ def row_background(images: NDArray[np.uint8], n_rows: int) -> tuple[F64, F64]:
     return med, np.maximum(mad, 1.0)
 
 
-def row_thresholds(images: NDArray[np.uint8], thr: F64, k: float, n_rows: int | None = None) -> F64:
+def row_thresholds(images: NDArray[np.uint8], thr: F64, n_rows: int | None = None) -> F64:
     """(F, bins) thresholds: per frame and range row, at least ``thr`` (per frame (F,) or row (F, bins)) and, in
-    the first ``n_rows`` rows (default all), at least the row's own background across the fan, median + ``k`` *
-    1.4826 * MAD over the beams (:func:`row_background`): a return stands out of what the fan sees at its range,
-    whatever gain, TVG and vertical pattern made the seabed's ramp, an interference band or a sidelobe arc that
-    spans the fan."""
+    the first ``n_rows`` rows (default all), the level that speckle of the row's median and MAD over the beams
+    (:func:`row_background`) exceeds once in 1 / PFA pixels (:func:`recon.water_threshold.speckle_upper`): a return
+    stands out of what the fan sees at its range, whatever gain, TVG and vertical pattern made the seabed's ramp,
+    an interference band or a sidelobe arc that spans the fan."""
     f, n_bins, _ = images.shape
     n = n_bins if n_rows is None else max(0, min(n_bins, int(n_rows)))
     floor = np.asarray(thr, np.float64)
     return thresholds_over(np.broadcast_to(floor if floor.ndim == 2 else floor[:, None], (f, n_bins)),
-                           *row_background(images, n), k)
+                           *row_background(images, n))
 
 
-def thresholds_over(thr: F64, med: F64, mad: F64, k: float) -> F64:
+def thresholds_over(thr: F64, med: F64, mad: F64) -> F64:
     """:func:`row_thresholds` over ``thr`` (F, bins) from the rows' background (``med``, ``mad`` (F, n) of
     :func:`row_background`)."""
     out = np.array(thr, dtype=np.float64)
     n = med.shape[1]
-    out[:, :n] = np.maximum(out[:, :n], med + k * MAD_SCALE * mad)
+    out[:, :n] = np.maximum(out[:, :n], speckle_upper(med, mad))
     return out
 
 

@@ -154,7 +154,7 @@ class Reconstructor:
         n_rows = min(g.n_bins, int(limits.max(initial=0)) + run_span_bins(cfg.highlight, g.bin_size))
         med, mad = row_background(imgs, n_rows)
         self.interfered_frames += int(interfered_rows(med, background, limits).any(axis=1).sum())
-        thr = thresholds_over(background, med, mad, cfg.highlight.k)
+        thr = thresholds_over(background, med, mad)
         return sidelobe_thresholds(thr, imgs, n_rows, margin_levels(cfg.sidelobe_db, cfg.display_range_db))
 
     def _effective_geometry(self, imgs: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64) -> SonarGeometry:

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 from recon.beam_edge import MIN_FRAMES, BeamEdge, frame_edges
 from recon.highlight import row_thresholds
 from recon.sonar_geometry import SonarGeometry
-from recon.water_threshold import PFA, WaterThreshold, histogram_thresholds, water_histogram
+from recon.water_threshold import PFA, WaterThreshold, histogram_thresholds, speckle_upper, water_histogram
 
 
 def _seabed_frames(geometry: SonarGeometry, alt: float, pitch_deg: float, n: int, rng: np.random.Generator,
@@ -106,6 +106,17 @@ def test_row_thresholds_rise_over_a_band_across_the_fan() -> None:
     img = np.clip(rng.normal(20.0, 5.0, (1, 64, 96)), 0, 255)
     img[0, 30:33] = 150.0  # interference: bright across the whole fan
     img[0, 50, 40:44] = 150.0  # an object in four beams
-    thr = row_thresholds(img.astype(np.uint8), np.array([30.0]), 4.0)[0]
+    thr = row_thresholds(img.astype(np.uint8), np.array([30.0]))[0]
     assert np.all(thr[30:33] > 150.0)
     assert thr[50] < 150.0 and thr[10] == pytest.approx(30.0, abs=25.0)
+
+
+def test_row_rule_is_speckles_false_alarm_level() -> None:
+    rng = np.random.default_rng(8)
+    grey, _ = _log_speckle(rng, (2_000_000,), 120.0)  # a bright row: well clear of the display's floor
+    med = float(np.median(grey))
+    mad = float(np.median(np.abs(grey - med)))
+    level = float(speckle_upper(np.array(med), np.array(mad)))
+    fresh, _ = _log_speckle(rng, (2_000_000,), 120.0)
+    assert PFA / 2 < float((fresh > level).mean()) < 2 * PFA
+    assert level < med + 4.0 * 1.4826 * mad - 30.0  # a Gaussian's 4 robust sigmas: 36 levels higher
