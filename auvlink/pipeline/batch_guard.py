@@ -9,8 +9,7 @@
   When it passes, :class:`MissionTimeout` is raised in the thread running the mission (the
   interpreter delivers it at its next bytecode: a native call under way, one reconstruction block,
   finishes first), but never while a module is being imported (an import cut in two would leave the
-  worker a half-initialised module: the exception waits for it to end) or a thread is being started (it would
-  reach the new thread instead: :func:`_no_thread_starting`); the mission's folder is written
+  worker a half-initialised module: the exception waits for it to end); the mission's folder is written
   atomically, so it keeps what it had, and the worker goes on with the next mission.
 * :func:`output_digests` / :func:`outputs_intact`: a mission record keeps the SHA-256 of every file the
   mission wrote, so a folder whose outputs were edited or deleted is processed again, not skipped;
@@ -98,10 +97,10 @@ def time_limit(seconds: float | None) -> Iterator[None]:
     def fire() -> None:
         wait = seconds
         while not over.wait(wait):
-            with guard, _no_thread_starting() as quiet:
+            with guard:
                 if state["done"]:
                     return
-                if quiet and not _importing():
+                if not _importing():
                     state["fired"] = True
                     ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target),
                                                                ctypes.py_object(MissionTimeout))
@@ -122,22 +121,6 @@ def time_limit(seconds: float | None) -> Iterator[None]:
             ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), None)
     if fired:
         raise MissionTimeout
-
-
-@contextmanager
-def _no_thread_starting() -> Iterator[bool]:
-    """Hold :mod:`threading`'s start lock; True when no thread is being started. A thread being started has an
-    interpreter state that carries its parent's id until it runs (CPython fills the id in from the new thread),
-    so an exception sent to the parent's id then goes to the new thread: the mission thread would wait forever
-    on a thread the exception killed (seen: an MCAP reader's prefetch thread). Holding the lock keeps any thread
-    from being started until the exception is sent."""
-    lock = getattr(threading, "_active_limbo_lock", None)
-    limbo = getattr(threading, "_limbo", None)
-    if lock is None or limbo is None:  # not CPython's threading: nothing to wait for
-        yield True
-        return
-    with lock:
-        yield not limbo
 
 
 def _importing() -> bool:
