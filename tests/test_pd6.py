@@ -194,3 +194,14 @@ def test_line_framer_chunking_invariant(parts: list[bytes], data: st.DataObject,
     assert got == expected
     assert chunked.stats.as_dict() == bulk.stats.as_dict()
     assert sum(map(len, got)) + bulk.stats.dropped_bytes == len(blob)
+
+
+@pytest.mark.parametrize("resync", [False, True])
+def test_a_line_of_max_length_cut_inside_its_terminator_is_kept(resync: bool) -> None:
+    blob = b"aa" + b":" * 12 + b"\r\n"  # garbage, then a line of exactly max_length bytes
+    bulk = LineFramer(b"\r\n", b":", max_length=12, resync_on_start=resync)
+    chunked = LineFramer(b"\r\n", b":", max_length=12, resync_on_start=resync)
+    whole = bulk.feed(blob)
+    assert whole == ([b":\r\n"] if resync else [blob[2:]])  # with resync a run of starts keeps only its last
+    assert chunked.feed(blob[:15]) + chunked.feed(blob[15:]) == whole  # the cut between \r and \n
+    assert chunked.stats.as_dict() == bulk.stats.as_dict()

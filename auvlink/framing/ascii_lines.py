@@ -125,7 +125,9 @@ class LineFramer(Framer):
                     pos = nxt
                     continue
             if t < 0:
-                if n - s > self.max_length:  # too long already: drop it whatever the chunking
+                # too long already, whatever the chunking: more than max_length bytes besides what may be the
+                # first bytes of its terminator at the end of the buffer
+                if n - s > self.max_length + len(term) - 1:
                     self._skipping = True
                     dropped += 1
                     pos = s + 1
