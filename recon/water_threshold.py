@@ -44,16 +44,22 @@ PFA = 1e-4
 WINDOW_FRAMES = 100
 
 
+def _exceeded(p: float) -> float:
+    """``ln(-ln p)``: the level (nepers, above the log of the mean intensity) that log-compressed speckle exceeds
+    with probability ``p`` (module docstring: ``ln E`` of an exponential ``E`` has the CDF ``1 - exp(-e^x)``)."""
+    return math.log(-math.log(p))
+
+
 def _log_speckle_mad() -> float:
-    """The MAD of ``ln E``, ``E`` exponential (log-compressed speckle in nepers; CDF ``1 - exp(-e^x)``): 0.767."""
-    med = math.log(math.log(2.0))
+    """The MAD of ``ln E``, ``E`` exponential (log-compressed speckle in nepers): 0.767."""
+    med = _exceeded(0.5)
     return float(brentq(lambda d: math.exp(-math.exp(med - d)) - math.exp(-math.exp(med + d)) - 0.5, 1e-9, 10.0))
 
 
 #: MADs above the median at which log-compressed speckle is exceeded with probability PFA: ``ln(-ln PFA) -
 #: ln(ln 2)`` nepers over the MAD's 0.767 nepers, 3.37 for 1e-4 (a Gaussian's 4 robust sigmas are 5.93 MADs: on a
 #: 60 dB display 36 grey levels above the speckle's 1e-4 level)
-SPECKLE_MADS = (math.log(-math.log(PFA)) - math.log(math.log(2.0))) / _log_speckle_mad()
+SPECKLE_MADS = (_exceeded(PFA) - _exceeded(0.5)) / _log_speckle_mad()
 
 
 def speckle_upper(med: F64, mad: F64) -> F64:
@@ -87,7 +93,7 @@ def histogram_thresholds(hist: F64) -> F64:
     pooled = c[POOL_ROWS:] - c[:-POOL_ROWS]  # (bins, 256): rows within +-half
     cum = np.cumsum(pooled, axis=1)
     q_lo, q_hi = _quantile_rows(cum, Q_LOW), _quantile_rows(cum, Q_HIGH)
-    y_lo, y_hi, y_pfa = (float(np.log(-np.log(1.0 - q))) for q in (Q_LOW, Q_HIGH, 1.0 - PFA))
+    y_lo, y_hi, y_pfa = _exceeded(1.0 - Q_LOW), _exceeded(1.0 - Q_HIGH), _exceeded(PFA)
     slope = np.maximum(q_hi - q_lo, 1.0) / (y_hi - y_lo)  # grey levels per unit of ln(-ln(1 - q)); >= 1 level apart
     thr = q_hi + slope * (y_pfa - y_hi)
     ok = cum[:, -1] >= MIN_SAMPLES

@@ -68,9 +68,9 @@ def test_beam_edge_nominal_until_enough_frames_then_follows_the_data() -> None:
     assert edge.half == pytest.approx(np.radians(11.0))
 
 
-def _log_speckle(rng: np.random.Generator, shape: tuple[int, ...], level: float) -> np.ndarray:
-    """Grey levels of fully developed speckle on a 60 dB log display: exponential intensity, 255 / 60 dB levels per
-    dB (18.5 per neper), the mean intensity at ``level``, floored at 0 like a display."""
+def _log_speckle(rng: np.random.Generator, shape: tuple[int, ...], level: float) -> tuple[np.ndarray, float]:
+    """Grey levels of fully developed speckle on a 60 dB log display (exponential intensity, the mean intensity at
+    ``level``, floored at 0 like a display) and the display's grey levels per neper (255 / 60 dB: 18.5)."""
     c = 255.0 / 60.0 * 10.0 / np.log(10.0)
     return np.clip(level + c * np.log(rng.exponential(1.0, shape)), 0, 255), c
 
