@@ -51,9 +51,11 @@ ENVELOPE_M = 0.25
 #: 6 sigma: a false step once in ~5e8 rows)
 MIN_STEP_MAD = 6.0
 #: the fraction of the water-to-seabed step (grey levels: dB on a log display) at which the seabed's onset is taken,
-#: and the level a return must reach (:attr:`BeamEdge.level`): a quarter (the seabed shows where it is 1/4 of its
-#: step above the water; a reflector as bright as the seabed shows where the effective edge meets it)
-ONSET_STEP = 0.25
+#: and the level a return must reach (:attr:`BeamEdge.level`): half (an edge at half its height, the usual edge
+#: convention; there the beam pattern falls fastest with elevation, so a reflector brighter or fainter than the
+#: seabed by a few dB is still placed near the elevation it was seen at, where deeper in the pattern's flat tail the
+#: same few dB move it by degrees; a reflector as bright as the seabed shows where the effective edge meets it)
+ONSET_STEP = 0.5
 
 #: frames behind the running median: 60 s at 10 frames/s (the DVL altitude's noise, the crests and troughs of a
 #: rough seabed under the fan's edge for a few seconds each and the objects passing through it average out; gain,
