@@ -24,9 +24,12 @@ from small_mission import simulate_small
 
 from auvlink.cli import main
 from auvlink.errors import AuvlinkError
+from auvlink.pipeline import batch_guard
 from auvlink.pipeline.batch import discover_logs, settings_of
-from auvlink.pipeline.batch_guard import MissionTimeout, check_scheduler_address, time_limit
+from auvlink.pipeline.batch_guard import FALLBACK_GRACE_S, MissionTimeout, check_scheduler_address, time_limit
 from auvlink.pipeline.batch_mission import MissionTask, run_mission
+from auvlink.pipeline.mission_deadline import check as check_deadline
+from auvlink.pipeline.mission_deadline import deadline
 
 pytestmark = pytest.mark.timeout(400)
 
@@ -69,7 +72,23 @@ def test_a_large_file_that_is_no_log_is_refused_before_its_checksum(tmp_path: Pa
     assert not (tmp_path / "site").exists()
 
 
-def test_time_limit_stops_the_block_and_only_it() -> None:
+def test_a_block_stops_itself_at_its_next_check_after_the_limit() -> None:
+    t0 = time.perf_counter()
+    with pytest.raises(MissionTimeout), time_limit(0.2):
+        while True:  # the replay loop's checks (auvlink.pipeline.mission_deadline)
+            check_deadline()
+            time.sleep(0.005)
+    assert 0.19 < time.perf_counter() - t0 < 0.2 + FALLBACK_GRACE_S / 2, "stopped by its own check"
+    check_deadline()  # no deadline left on this thread
+    with time_limit(5.0), deadline(0.01):  # nested: the earlier one holds
+        time.sleep(0.02)
+        with pytest.raises(MissionTimeout):
+            check_deadline()
+    check_deadline()
+
+
+def test_time_limit_stops_the_block_and_only_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(batch_guard, "FALLBACK_GRACE_S", 0.0)  # a block that never checks: the last resort
     t0 = time.perf_counter()
     with pytest.raises(MissionTimeout), time_limit(0.3):
         while True:  # a Python loop: interrupted at its next bytecode
@@ -82,6 +101,7 @@ def test_time_limit_stops_the_block_and_only_it() -> None:
 
 
 def test_time_limit_never_cuts_an_import_in_two(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(batch_guard, "FALLBACK_GRACE_S", 0.0)
     (tmp_path / "slow_import_t34.py").write_text("import time\ntime.sleep(0.6)\nWHOLE = True\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.delitem(sys.modules, "slow_import_t34", raising=False)
@@ -92,6 +112,36 @@ def test_time_limit_never_cuts_an_import_in_two(tmp_path: Path, monkeypatch: pyt
             pass
     assert sys.modules["slow_import_t34"].WHOLE  # imported whole; the limit struck after it
     monkeypatch.delitem(sys.modules, "slow_import_t34")
+
+
+class _HeldStart(threading.Thread):
+    """A thread whose start is held until ``gate`` opens: its parent waits inside ``Thread.start`` meanwhile."""
+
+    def __init__(self, gate: threading.Event) -> None:
+        super().__init__(target=lambda: None, daemon=True)
+        self.gate = gate
+        self.ran = False
+
+    def _bootstrap(self) -> None:  # the new thread's first Python code
+        self.gate.wait()
+        self.ran = True
+        super()._bootstrap()  # type: ignore[misc]
+
+
+def test_time_limit_never_strikes_a_thread_start(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(batch_guard, "FALLBACK_GRACE_S", 0.0)
+    gate = threading.Event()
+    opened = threading.Timer(0.5, gate.set)
+    child = _HeldStart(gate)
+    t0 = time.perf_counter()
+    opened.start()
+    with pytest.raises(MissionTimeout), time_limit(0.05):
+        child.start()  # held 0.5 s, ten times the limit: the exception waits for it (module doc)
+        while True:
+            pass
+    assert time.perf_counter() - t0 >= 0.5 and child.ran
+    child.join(5.0)
+    assert not child.is_alive()
 
 
 @pytest.mark.slow

@@ -6,10 +6,16 @@
 * :func:`check_mcap_magic`: a log's first 8 bytes are the MCAP magic before it is hashed, so a large
   file that is not a log is refused after reading 8 bytes, not after reading it whole.
 * :func:`time_limit`: a mission's time limit (``--mission-timeout``, :data:`DEFAULT_MISSION_TIMEOUT_S`).
-  When it passes, :class:`MissionTimeout` is raised in the thread running the mission (the
-  interpreter delivers it at its next bytecode: a native call under way, one reconstruction block,
-  finishes first), but never while a module is being imported (an import cut in two would leave the
-  worker a half-initialised module: the exception waits for it to end); the mission's folder is written
+  When it passes, the mission stops itself with :class:`MissionTimeout` at its next check
+  (:mod:`auvlink.pipeline.mission_deadline`: the replay loop checks between frame blocks, where nothing is
+  half done). Only a mission that reaches no check for :data:`FALLBACK_GRACE_S` more gets the exception from
+  outside, in its thread at its next bytecode (a native call under way finishes first), never while a module
+  is being imported (an import cut in two would leave the worker a half-initialised module) nor while that
+  thread is inside ``Thread.start``: CPython 3.11 gives a thread being started its parent's id until it runs,
+  so the exception could land on the new thread, which dies before telling its parent it started, and the
+  parent waits for it forever. That check and the exception cannot be made one step from Python, so the
+  outside exception is a last resort (a loop starting threads without pause can still meet the race; the
+  replay loop never meets it, as it stops itself first). Either way the mission's folder is written
   atomically, so it keeps what it had, and the worker goes on with the next mission.
 * :func:`output_digests` / :func:`outputs_intact`: a mission record keeps the SHA-256 of every file the
   mission wrote, so a folder whose outputs were edited or deleted is processed again, not skipped;
@@ -33,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from auvlink.errors import AuvlinkError
+from auvlink.pipeline.mission_deadline import MissionTimeout, deadline
 from auvlink.pipeline.run_guard import REPLAY_OUTPUTS
 from logs_format.records import MAGIC
 
@@ -43,12 +50,15 @@ HASH_BLOCK = 1 << 20  # bytes read at a time for an output's checksum
 RECORD_FILE = "batch.json"
 SEAL_KEY = "record_sha256"
 PORTLESS_PROTOCOLS = ("inproc",)  # distributed's in-process transport: an address without a port
-IMPORT_POLL_S = 0.05  # s: how often a due time limit looks again whether an import has ended
+IMPORT_POLL_S = 0.05  # s: how often a due time limit looks again whether an import or a thread start has ended
+#: s after the limit before the exception is sent from outside (a mission that reached no check, stuck before or
+#: after its replay loop): the loop checks every 0.1-1 s of mission time, under a second of work at 50x real time,
+#: so a mission still running 30 s after its limit is not in it; rare by design, as the last resort is not
+#: race-free (module doc)
+FALLBACK_GRACE_S = 30.0
+_THREAD_START = threading.Thread.start.__code__
 
-
-class MissionTimeout(BaseException):
-    """A mission ran past its ``--mission-timeout``. A BaseException (as KeyboardInterrupt): the pipeline's
-    handlers of a bad frame (``except Exception``) must not take it for one and go on."""
+__all__ = ["MissionTimeout", "time_limit"]  # MissionTimeout: auvlink.pipeline.mission_deadline's, for callers here
 
 
 def check_scheduler_address(address: str) -> str:
@@ -95,22 +105,27 @@ def time_limit(seconds: float | None) -> Iterator[None]:
     over = threading.Event()
 
     def fire() -> None:
-        wait = seconds
+        wait = seconds + FALLBACK_GRACE_S
         while not over.wait(wait):
             with guard:
                 if state["done"]:
                     return
-                if not _importing():
-                    state["fired"] = True
+                if not _importing() and not _starting_thread(target):
                     ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target),
                                                                ctypes.py_object(MissionTimeout))
-                    return
+                    if not _starting_thread(target):
+                        state["fired"] = True
+                        return
+                    # it began a thread start meanwhile: the exception may sit on the new thread (module
+                    # doc); take it back from the first thread with that id, and try again
+                    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), None)
             wait = IMPORT_POLL_S
 
     timer = threading.Thread(target=fire, name="mission-time-limit", daemon=True)
     timer.start()
     try:
-        yield
+        with deadline(seconds):
+            yield
     finally:
         with guard:
             state["done"] = True
@@ -121,6 +136,16 @@ def time_limit(seconds: float | None) -> Iterator[None]:
             ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), None)
     if fired:
         raise MissionTimeout
+
+
+def _starting_thread(ident: int) -> bool:
+    """Whether the thread ``ident`` is inside :meth:`threading.Thread.start` now (its frames, module doc)."""
+    frame = sys._current_frames().get(ident)
+    while frame is not None:
+        if frame.f_code is _THREAD_START:
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _importing() -> bool:

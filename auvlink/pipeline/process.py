@@ -21,6 +21,7 @@ from auvlink.pipeline.engine import Engine, EngineConfig
 from auvlink.pipeline.engine_hooks import EngineHooks
 from auvlink.pipeline.fan_frames import FanRecorder
 from auvlink.pipeline.log_meta import live_settings
+from auvlink.pipeline.mission_deadline import check as check_deadline
 from auvlink.pipeline.nav_inputs import CONSUMED_FORMATS
 from auvlink.pipeline.object_labels import TORCH_THREADS, ObjectLabeller
 from auvlink.pipeline.results import Detection, FanFrame, MissionResult
@@ -108,6 +109,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
                 last_adv = t_ns
             elif t_ns - last_adv >= ADVANCE_NS:
                 decode_s += time.perf_counter() - t_read
+                check_deadline()  # a mission's time limit (auvlink batch --mission-timeout) stops it here
                 if engine.advance(t_ns) and warm_s is None:
                     warm_s = time.perf_counter() - t_start
                 last_adv = t_ns
@@ -117,6 +119,7 @@ def run_log(log: Path, *, speed: float | None = None, model: Path | None = None,
                     bar.update(t - shown)
                     shown = t
         decode_s += time.perf_counter() - t_read
+        check_deadline()
         engine.finish()
         stats = replay.stats()
         loss = replay.loss.to_json()  # what the log lost (logs_format.loss.LossReport), as JSON
