@@ -78,7 +78,7 @@ def test_the_config_describes_the_vehicle() -> None:
     scene, settings = adapt(load_default_scene(), SimSettings(), config)
     assert scene.sonar.lever_arm == (1.2, 0.0, 0.1) and settings.sensors.pressure == "keller"
     assert settings.sensors.dvl_lever_arm == (0.4, 0.0, 0.25)
-    bad = loads_config('[[devices]]\nname = "x"\nformat = "aris"\nurl = "tcp://127.0.0.1:1"\n')
+    bad = loads_config('[[devices]]\nname = "x"\nformat = "pd6"\nurl = "tcp://127.0.0.1:1"\n')
     with pytest.raises(SimError, match="does not emit"):
         match_devices(bad)
 

@@ -118,13 +118,14 @@ def test_oculus_device_needs_an_oculus_model() -> None:
         adapt(loads_scene(scene_toml()), SimSettings(), config)
 
 
-def test_aris_models_are_refused_by_the_simulator() -> None:
-    with pytest.raises(ConfigError, match=r"sonar\.model"):
-        loads_scene(scene_toml(sonar={"model": "aris3000"}))
-    config = loads_config('[[devices]]\nname = "sonar"\nformat = "didson"\nurl = "tcp://127.0.0.1:5999"\n\n'
-                          '[sonar]\ntilt_deg = 30.0\nwindow_start = 1.0\nwindow_length = 10.0\nmodel = "aris1800"\n')
+def test_a_sonar_device_speaks_its_models_format() -> None:
+    """An ARIS model is served by an ``aris`` device, not a ``didson`` one (the error names the model)."""
+    vehicle = '[sonar]\ntilt_deg = 30.0\nwindow_start = 1.0\nwindow_length = 10.0\nmodel = "aris1800"\n'
+    device = '[[devices]]\nname = "sonar"\nformat = "{}"\nurl = "tcp://127.0.0.1:5999"\n\n'
     with pytest.raises(SimError, match="aris1800"):
-        adapt(loads_scene(scene_toml()), SimSettings(), config)
+        adapt(loads_scene(scene_toml()), SimSettings(), loads_config(device.format("didson") + vehicle))
+    scene, _ = adapt(loads_scene(scene_toml()), SimSettings(), loads_config(device.format("aris") + vehicle))
+    assert scene.sonar.model == "aris1800"
 
 
 def test_report_fan_reads_an_oculus_ping() -> None:
@@ -147,9 +148,10 @@ def test_demo_scene_flown_with_another_sonar() -> None:
     assert (scene.sonar.model, scene.sonar.spread_deg) == ("oculus-m1200d", 12.0)
     assert (scene.sonar.tilt_deg, scene.sonar.window_start, scene.objects) == (
         base.sonar.tilt_deg, base.sonar.window_start, base.objects)
+    assert with_sonar_model(base, "aris3000").sonar.model == "aris3000"
     with pytest.raises(ConfigError, match="aris3000"):
-        with_sonar_model(base, "aris3000")
-    demo = subprocess.run([sys.executable, "-m", "auvlink", "demo", "--sonar", "aris3000", "--out", "unused"],
+        with_sonar_model(base, "sidescan")  # type: ignore[arg-type]
+    demo = subprocess.run([sys.executable, "-m", "auvlink", "demo", "--sonar", "sidescan", "--out", "unused"],
                           capture_output=True, text=True, check=False)
     assert demo.returncode == 2 and "--sonar" in demo.stderr
 

@@ -213,8 +213,9 @@ def test_seabed_samples_per_degree_do_not_depend_on_the_beam_count(n: int, half:
 
 def test_random_surveys_draw_the_sonar_model_too() -> None:
     """``sonar="random"`` flies one simulated model per survey from its own stream: the survey's other factors are
-    the DIDSON draw's; the swath and the scene follow the model's fan and vertical aperture."""
-    draws = [draw_survey(9100, i, sonar="random") for i in range(12)]
+    the DIDSON draw's; the swath and the scene follow the model's fan and vertical aperture (19 draws of seed 9100
+    hold all five models)."""
+    draws = [draw_survey(9100, i, sonar="random") for i in range(19)]
     assert {d.sonar for d in draws} == set(SIMULATED_MODELS)
     for i, d in enumerate(draws):
         base = draw_survey(9100, i)
@@ -223,11 +224,15 @@ def test_random_surveys_draw_the_sonar_model_too() -> None:
         scene = loads_scene(d.scene_toml())
         assert scene.sonar.description.model == d.sonar
         assert scene.sonar.spread_deg == describe(d.sonar).vertical_aperture_deg
-        if d.sonar != "didson":
+        if d.sonar.startswith("oculus"):
             assert d.swath > base.swath  # 60-70 deg fans against the DIDSON's 29
+        elif d.sonar.startswith("aris"):  # the DIDSON's vertical aperture, the SDK table's half field
+            ratio = math.sin(math.radians(describe(d.sonar).half_fov_deg)) / math.sin(math.radians(14.5))
+            assert d.swath == pytest.approx(base.swath * ratio, abs=2e-3)
 
 
 def test_survey_sonar_names_the_models() -> None:
     assert {d.sonar for d in draw_surveys(3, 9100, small=True, sonar="oculus-m1200d")} == {"oculus-m1200d"}
+    assert survey_sonar(1, 0, "aris3000") == "aris3000"
     with pytest.raises(ValueError, match="oculus-m750d"):
-        survey_sonar(1, 0, "aris3000")
+        survey_sonar(1, 0, "sidescan")

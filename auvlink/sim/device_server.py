@@ -5,8 +5,8 @@ configuration file.
 
 The configuration is the one ``auvlink record`` and ``auvlink live`` read, unchanged. Each of its
 devices is matched to a simulated instrument by its wire format (``pd0`` DVL, ``dsp1760`` gyro,
-``paro`` or ``keller`` pressure, ``can`` navigation bus, ``didson`` or ``oculus`` sonar, ``nmea`` GNSS receiver: silent
-when the scene has no ``[gnss]``) and served where its URL points:
+``paro`` or ``keller`` pressure, ``can`` navigation bus, ``didson``, ``aris`` or ``oculus`` sonar, ``nmea`` GNSS
+receiver: silent when the scene has no ``[gnss]``) and served where its URL points:
 
 - a serial URL (``/tmp/auvlink/dvl?baudrate=115200``): a :class:`~auvlink.virtual.PtyPair` whose
   slave is symlinked at that path (parent folders created). Lossy like a UART: bytes nobody reads

@@ -16,6 +16,8 @@ sonar     didson     one frame per sonar pose: :class:`~auvlink.sim.sonar_render
                      the scene's window, the frame time (us) and the head's heading/pitch/roll
           oculus     (a scene whose ``[sonar] model`` is an Oculus) one SimplePingResult V2 per pose
                      (:mod:`auvlink.sim.oculus_ping`): the image from the transducer to the window's end
+          aris       (an ARIS 1800 or 3000) one ARIS frame per pose (:mod:`auvlink.sim.aris_frame`): the
+                     window the ARIS samples, the frame time (us), the head's heading/pitch/roll
 ========  =========  ================================================================================
 
 No byte is built by hand: every frame is ``encode(build(...))`` of its codec (CAN records are
@@ -39,6 +41,7 @@ from scipy.spatial.transform import Rotation
 from auvlink.codecs import can_nav, didson, dsp1760, keller, paro
 from auvlink.codecs import pd0 as pd0_codec
 from auvlink.sim import gnss as gnss_sim
+from auvlink.sim.aris_frame import frame_message
 from auvlink.sim.dvl import pd0_ensemble
 from auvlink.sim.oculus_ping import ping_message, sonar_format
 from auvlink.sim.sensors import Measurements, pressure_to_depth
@@ -202,14 +205,21 @@ def sonar_frame(m: Measurements, k: int, image: np.ndarray, window_start: float,
 
 
 def sonar_message(m: Measurements, k: int, image: np.ndarray, renderer: SonarRenderer) -> tuple[bytes, int | None]:
-    """Frame ``k`` in the wire format of the scene's sonar model (DIDSON frame or Oculus ping; no sensor time)."""
+    """Frame ``k`` in the wire format of the scene's sonar model (DIDSON or ARIS frame with its sensor time, or an
+    Oculus ping without one)."""
     fan, sc = renderer.geometry, renderer.scene.sonar
-    if sonar_format(sc) == "didson":
+    fmt = sonar_format(sc)
+    if fmt == "didson":
         return sonar_frame(m, k, image, sc.window_start, sc.window_length)
     s = m.sonar
+    attitude = (float(s.heading[k]), float(s.pitch[k]), float(s.roll[k]))
+    if fmt == "aris":
+        raw, t = frame_message(fan.description, image, (sc.window_start, sc.window_length), frame_index=k,
+                               time_s=m.sensors.start_ns * 1e-9 + float(s.t[k]), sound_speed=m.sensors.sound_speed,
+                               fps=sc.fps, attitude_rad=attitude, water_temperature_c=m.sensors.water_temperature_c)
+        return raw, _ns(t)
     raw = ping_message(fan.description, image, fan.window_end, ping_id=k, time_s=float(s.t[k]),
-                       sound_speed=m.sensors.sound_speed, fps=sc.fps,
-                       attitude_rad=(float(s.heading[k]), float(s.pitch[k]), float(s.roll[k])))
+                       sound_speed=m.sensors.sound_speed, fps=sc.fps, attitude_rad=attitude)
     return raw, None
 
 

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from auvlink.progress import progress_bar
+from auvlink.sim.aris_frame import aris_scene
 from auvlink.sim.emit import Event, block_events, device_formats, sonar_format
 from auvlink.sim.noise import NoiseConfig, SimError
 from auvlink.sim.scene import MAX_MISSION_S, MAX_SEED, Scene
@@ -89,7 +90,9 @@ def prepare(scene: Scene, seed: int | None = None, duration: float | None = None
     """Apply the seed and noise overrides and compute every measurement of the run.
 
     ``seed`` replaces the scene's seed (it seeds every draw, the seabed and the oscillations too);
-    ``noise=False`` gives the noise-free mode, a :class:`NoiseConfig` replaces the scene's.
+    ``noise=False`` gives the noise-free mode, a :class:`NoiseConfig` replaces the scene's. An ARIS' window
+    becomes the one it samples in whole microseconds at the settings' sound speed
+    (:func:`auvlink.sim.aris_frame.aris_scene`): the run's scene is what its frames say.
     """
     if seed is not None:
         if not 0 <= seed <= MAX_SEED:
@@ -103,6 +106,7 @@ def prepare(scene: Scene, seed: int | None = None, duration: float | None = None
         raise SimError(f"the duration must be a number of seconds in (0, {MAX_MISSION_S:.0f}] (12 h, a scene's "
                        f"longest mission), got {duration}")
     check_budget(scene, settings)
+    scene = aris_scene(scene, settings.sensors.sound_speed)
     traj = LawnmowerTrajectory.from_scene(scene)
     return Run(scene, settings, traj, measure(scene, settings, duration, traj))
 

@@ -18,7 +18,6 @@ import numpy as np
 from auvlink.codecs import oculus
 from auvlink.codecs.oculus_messages import OculusFire, OculusHeader
 from auvlink.framing import oculus_defs as d
-from auvlink.sim.noise import SimError
 from auvlink.sonar import Sonar, SonarDescription
 
 #: the PingRateType codes (liboculus Oculus.h facts, auvlink.codecs.oculus_messages.OculusFire): rate Hz -> code
@@ -29,13 +28,10 @@ GAIN_PERCENT = 50.0
 
 
 def sonar_format(sonar: Sonar) -> str:
-    """The wire format the simulated sonar speaks: ``oculus`` for an Oculus model, ``didson`` for the DIDSON; the
-    ARIS models are refused (:class:`~auvlink.sim.noise.SimError`): the simulator does not write ARIS frames."""
+    """The wire format the simulated sonar speaks: ``oculus`` for an Oculus model, ``aris`` for an ARIS
+    (:mod:`auvlink.sim.aris_frame`), ``didson`` for the DIDSON."""
     model = sonar.description.model
-    if model.startswith("aris"):
-        raise SimError(f"sonar.model: the simulator does not send {model} frames (use didson, oculus-m750d or "
-                       "oculus-m1200d; acoustics.profile sets an ARIS-like image)")
-    return "oculus" if model.startswith("oculus") else "didson"
+    return "oculus" if model.startswith("oculus") else "aris" if model.startswith("aris") else "didson"
 
 
 def ping_rate_code(fps: float) -> int:

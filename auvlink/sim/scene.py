@@ -202,17 +202,17 @@ def parse_scene(doc: Any, source: str = "") -> Scene:
         raise ConfigError("survey", f"the mission would last {duration:.0f} s (lines x line_length / speed), "
                           f"beyond the {MAX_MISSION_S:.0f} s (12 h) limit",
                           "use fewer or shorter lines, or a higher speed")
-    if f.sonar.model is not None and f.sonar.model not in SIMULATED_MODELS:  # DIDSON frames and Oculus pings only
+    if f.sonar.model is not None and f.sonar.model not in SIMULATED_MODELS:
         raise ConfigError("sonar.model", f"the simulator does not send {f.sonar.model} frames",
-                          f"use {', '.join(SIMULATED_MODELS)} (acoustics.profile sets an ARIS-like image)")
+                          f"use {', '.join(SIMULATED_MODELS)}")
     resolve(f.acoustics)  # the ideal profile with overrides is an error naming the key
     return Scene(seed=f.seed, seabed=f.seabed, objects=tuple(o.scene_object() for o in f.objects),
                  survey=f.survey, sonar=f.sonar, vehicle=f.vehicle, source=source, site=f.site,
                  gnss=check_gnss(f.gnss), acoustics=f.acoustics)
 
 
-#: the sonar models the simulator sends (DIDSON frames, Oculus pings; auvlink.sim.oculus_ping.sonar_format)
-SIMULATED_MODELS: tuple[SonarModelName, ...] = ("didson", "oculus-m750d", "oculus-m1200d")
+#: the sonar models the simulator sends (DIDSON and ARIS frames, Oculus pings; auvlink.sim.oculus_ping.sonar_format)
+SIMULATED_MODELS: tuple[SonarModelName, ...] = ("didson", "aris1800", "aris3000", "oculus-m750d", "oculus-m1200d")
 
 
 def with_sonar_model(scene: Scene, model: SonarModelName) -> Scene:

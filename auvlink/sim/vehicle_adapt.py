@@ -4,7 +4,8 @@ mountings and sonar put over the scene's (``auvlink sim --live``, :mod:`auvlink.
 Devices are matched by wire format (:data:`ROLES`). The configuration wins over the scene for the DVL and
 pressure lever arms, the DVL mounting angles, the sonar's lever arm, tilt, spread, window, model and frequency
 mode, the pressure sensor's kind and the GNSS antenna's lever arm. A device that speaks ``oculus`` needs an
-Oculus model (``[sonar] model``, in the configuration or the scene): the simulator's pings are that model's.
+Oculus model (``[sonar] model``, in the configuration or the scene): the simulator's pings are that model's; one
+that speaks ``aris`` an ARIS model (its frames are that model's), one that speaks ``didson`` the DIDSON.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from auvlink.validation import config_error
 
 #: wire format -> the simulated instrument that serves it
 ROLES = {"pd0": "dvl", "dsp1760": "gyro", "paro": "pressure", "keller": "pressure", "can": "can",
-         "didson": "sonar", "oculus": "sonar", "nmea": "gnss"}
+         "didson": "sonar", "aris": "sonar", "oculus": "sonar", "nmea": "gnss"}
 
 
 def match_devices(config: VehicleConfig) -> dict[str, DeviceConfig]:
@@ -69,5 +70,5 @@ def adapt(scene: Scene, settings: SimSettings, config: VehicleConfig) -> tuple[S
     if "sonar" in devices and devices["sonar"].format != sonar_format(sonar):
         raise SimError(f"device {devices['sonar'].name!r} speaks {devices['sonar'].format!r} but the simulated sonar "
                        f"is a {sonar.description.model}: set [sonar] model to match (oculus-m750d or oculus-m1200d "
-                       "for an oculus device, didson for a didson one)")
+                       "for an oculus device, aris1800 or aris3000 for an aris one, didson for a didson one)")
     return replace(scene, sonar=sonar), replace(settings, sensors=s)
