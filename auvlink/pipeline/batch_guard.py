@@ -39,7 +39,8 @@ from pathlib import Path
 from typing import Any
 
 from auvlink.errors import AuvlinkError
-from auvlink.pipeline.mission_deadline import MissionTimeout, deadline
+from auvlink.pipeline.mission_deadline import MissionTimeout as MissionTimeout  # raised here, caught by callers
+from auvlink.pipeline.mission_deadline import deadline
 from auvlink.pipeline.run_guard import REPLAY_OUTPUTS
 from logs_format.records import MAGIC
 
@@ -57,8 +58,6 @@ IMPORT_POLL_S = 0.05  # s: how often a due time limit looks again whether an imp
 #: race-free (module doc)
 FALLBACK_GRACE_S = 30.0
 _THREAD_START = threading.Thread.start.__code__
-
-__all__ = ["MissionTimeout", "time_limit"]  # MissionTimeout: auvlink.pipeline.mission_deadline's, for callers here
 
 
 def check_scheduler_address(address: str) -> str:

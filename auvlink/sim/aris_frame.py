@@ -33,18 +33,14 @@ import numpy as np
 
 from auvlink.codecs import aris
 from auvlink.framing.aris_defs import FRAME_HEADER_DTYPE, PING_MODE_BEAMS, SIGNATURE_U32
+from auvlink.sim.oculus_ping import sonar_format
 from auvlink.sim.scene import Scene
-from auvlink.sonar import Sonar, SonarDescription
+from auvlink.sonar import SonarDescription
 
 #: ARIS model -> ``TheSystemType`` (aris-file-sdk FrameHeader.h: 0 ARIS 1800, 1 ARIS 3000, 2 ARIS 1200)
 SYSTEM_TYPES: dict[str, int] = {"aris1800": 0, "aris3000": 1}
 #: most microseconds a u32 header field holds (FrameHeader.h: SamplePeriod, SampleStartDelay are uint32)
 _U32_MAX = 0xFFFFFFFF
-
-
-def is_aris(sonar: Sonar) -> bool:
-    """Whether the sonar's model is an ARIS (sent as ARIS frames)."""
-    return sonar.description.model in SYSTEM_TYPES
 
 
 def ping_mode(description: SonarDescription) -> int:
@@ -83,7 +79,7 @@ def aris_scene(scene: Scene, sound_speed: float) -> Scene:
     """The scene with an ARIS' window the one it samples at ``sound_speed`` (m/s); any other sonar unchanged."""
     sonar = scene.sonar
     samples = sonar.description.samples
-    if not is_aris(sonar) or samples is None:
+    if sonar_format(sonar) != "aris" or samples is None:
         return scene
     start, length = sampled_window(sonar.window_start, sonar.window_length, samples, sound_speed)
     return replace(scene, sonar=replace(sonar, window_start=start, window_length=length))
