@@ -9,7 +9,9 @@ Recon against the simulator's ground truth is evaluation, in the application lay
   :mod:`recon.nav_stream` with :mod:`recon.nav_stream_lib` (causal dead reckoning), :mod:`recon.nav_anchor`
   (GNSS anchoring), :mod:`recon.trajectory` (pose interpolation);
 - the sonar and its targets: :mod:`recon.sonar_geometry` (beams, bins, rays, seabed onset),
-  :mod:`recon.beam_edge` (the fan's effective lower edge, estimated from the data), :mod:`recon.range_arcs`
+  :mod:`recon.beam_edge` (the fan's effective lower edge, estimated from the data), :mod:`recon.pattern_fall` (the
+  beam pattern's fall beyond it) with :mod:`recon.echo_mosaic` (how much brighter than the seabed each patch
+  echoes: where a brighter reflector was seen), :mod:`recon.range_arcs`
   (a return's range arc), :mod:`recon.target_envelope` (the smallest and largest object
   and the limits derived from them);
 - the reconstruction: :mod:`recon.reconstructor` (:class:`Reconstructor`, the stages in order) with

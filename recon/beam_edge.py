@@ -82,7 +82,7 @@ def _envelope(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, 
     return az[central], env
 
 
-def _plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, normal: F64, az: F64
+def plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, normal: F64, az: F64
                  ) -> tuple[F64, F64, F64]:
     """The sonar's height (F,) above the seabed plane (``point``, unit ``normal`` into the water, (F, 3) each) and,
     per beam at azimuth ``az``, the terms ``a``, ``b`` (F, C) of the normal in S: a ray at elevation ``phi`` meets
@@ -127,28 +127,45 @@ def frame_edges(images: NDArray[np.uint8], geometry: SonarGeometry, pos: F64, ro
     onset against the seabed plane (``point``, unit ``normal`` into the water, (F, 3) each), and the grey level
     ``(N + P) / 2`` that defines that onset (module docstring); both (F,), NaN where the frame shows no onset or
     the plane is unknown."""
+    edges, level, _ = frame_edge_profile(images, geometry, pos, rot, point, normal, (ONSET_STEP,))
+    return edges[:, 0], level
+
+
+def frame_edge_profile(images: NDArray[np.uint8], geometry: SonarGeometry, pos: F64, rot: Rotation, point: F64,
+                       normal: F64, fractions: tuple[float, ...]) -> tuple[F64, F64, F64]:
+    """:func:`frame_edges` at each of ``fractions`` of the water-to-seabed step (the first one defines the level):
+    the elevations (F, K) at which the seabed onset reaches ``N + fraction (P - N)`` (a lower fraction is reached
+    at a steeper elevation: the beam pattern's fall beyond the edge, :mod:`recon.bright_returns`), the grey level
+    of the first fraction at the onset (F,) and the step ``P - N`` there (F,); NaN where a frame shows no onset."""
     az, env = _envelope(images, geometry)
     r = geometry.ranges
-    height, a, b = _plane_terms(geometry, rot, pos, point, normal, az)
+    height, a, b = plane_terms(geometry, rot, pos, point, normal, az)
     with np.errstate(invalid="ignore"):
         no_seabed = r[None, :] < height[:, None]
     n_lvl, p_lvl, step_ok = _levels(env, no_seabed)
-    mid = n_lvl + ONSET_STEP * (p_lvl[:, None] - n_lvl)  # (F, bins)
-    above = (env >= mid[:, :, None]) & ~no_seabed[:, :, None]  # (F, bins, C)
-    row = np.argmax(above, axis=1)  # (F, C): each central beam's onset row
-    hit = np.take_along_axis(above, row[:, None, :], axis=1)[:, 0, :]
-    g = height[:, None] / r[row]
     amp = np.hypot(a, b)
-    with np.errstate(all="ignore"):
-        phi = np.arctan2(b, a) - np.arccos(np.clip(g / amp, -1.0, 1.0))  # (F, C): each beam's edge at its onset
-    phi = np.where(hit & (g <= amp), phi, np.nan)
-    enough = np.isfinite(phi).sum(axis=1) >= 0.5 * phi.shape[1]  # most central beams show the onset
-    ok = step_ok & enough & np.isfinite(height) & (height > 0)
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # frames without an onset: NaN
-        edge = np.where(ok, np.nanmedian(np.where(ok[:, None], phi, 0.0), axis=1), np.nan)
-    at_onset = np.take_along_axis(mid, np.median(row, axis=1).astype(np.int64)[:, None], axis=1)[:, 0]
-    return edge, np.where(np.isfinite(edge), at_onset, np.nan)
+    edges = np.full((env.shape[0], len(fractions)), np.nan)
+    level = step = np.full(env.shape[0], np.nan)
+    for k, fraction in enumerate(fractions):
+        lvl = n_lvl + fraction * (p_lvl[:, None] - n_lvl)  # (F, bins)
+        above = (env >= lvl[:, :, None]) & ~no_seabed[:, :, None]  # (F, bins, C)
+        row = np.argmax(above, axis=1)  # (F, C): each central beam's onset row
+        hit = np.take_along_axis(above, row[:, None, :], axis=1)[:, 0, :]
+        g = height[:, None] / r[row]
+        with np.errstate(all="ignore"):
+            phi = np.arctan2(b, a) - np.arccos(np.clip(g / amp, -1.0, 1.0))  # (F, C): each beam's edge at its onset
+        phi = np.where(hit & (g <= amp), phi, np.nan)
+        enough = np.isfinite(phi).sum(axis=1) >= 0.5 * phi.shape[1]  # most central beams show the onset
+        ok = step_ok & enough & np.isfinite(height) & (height > 0)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # frames without an onset: NaN
+            edges[:, k] = np.where(ok, np.nanmedian(np.where(ok[:, None], phi, 0.0), axis=1), np.nan)
+        if k == 0:
+            at = np.median(row, axis=1).astype(np.int64)[:, None]
+            found = np.isfinite(edges[:, 0])
+            level = np.where(found, np.take_along_axis(lvl, at, axis=1)[:, 0], np.nan)
+            step = np.where(found, p_lvl - np.take_along_axis(n_lvl, at, axis=1)[:, 0], np.nan)
+    return edges, level, step
 
 
 class BeamEdge:

@@ -36,8 +36,12 @@ F64 = NDArray[np.float64]
 
 
 def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, width: float = 0.25,
-                    chunk: int = 1024) -> F64:
+                    chunk: int = 1024, steepest: F64 | None = None) -> F64:
     """Front-slope corrected copy of one object's ``points`` (N, 3) given their ``arcs`` (N, 10).
+
+    ``steepest``: per point the steepest elevation (rad) a raised point may keep (default ``+spread / 2``): the
+    elevation below the edge an object's points were re-placed on (:mod:`recon.pattern_fall`), so that raising a
+    point to its object's top never lifts it above that top, back to the edge ray.
 
     The neighbour pairs are formed ``chunk`` points at a time (the same answer for any ``chunk``): a
     dense cloud, e.g. a seabed left in by a threshold far too low (150,000 points), held every pair
@@ -69,7 +73,8 @@ def replace_on_arcs(points: F64, arcs: F64, spread: float, length: float = 1.0, 
     amp = np.maximum(np.hypot(a, b), 1e-12)
     phi = np.arctan2(b, a) - np.arccos(np.clip((top - o[:, 2]) / amp, -1.0, 1.0))
     half = 0.5 * spread
-    phi = np.where(top < p[:, 2], np.clip(phi, -half, half), half)
+    hi = np.full(n, half) if steepest is None else np.maximum(half, np.asarray(steepest, np.float64))
+    phi = np.where(top < p[:, 2], np.clip(phi, -half, hi), half)
     q = o + r[:, None] * (np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w)
     moved = top < p[:, 2]
     return np.where(moved[:, None], q, p)

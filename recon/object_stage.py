@@ -12,6 +12,7 @@ the far side it could not see (:func:`recon.far_side.far_side_centre`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -22,7 +23,7 @@ from recon.cluster_stream import StreamingClusterer
 from recon.far_side import far_side_centre
 from recon.front_slope import replace_on_arcs
 from recon.poll_seabed import object_points, on_seabed
-from recon.range_arcs import ARC_COLUMNS
+from recon.range_arcs import ARC_COLUMNS, arc_elevations, is_arc_record, points_at
 from recon.recon_config import ReconConfig
 from recon.seabed import SeabedModel
 from recon.seabed_memory import SeabedMemory
@@ -43,6 +44,9 @@ class ObjectStage:
         self.rejected: dict[str, int] = {"too_wide": 0, "too_low": 0}
         self.objects: list[DetectedObject] = []
         self.seabed_removed = 0
+        #: an object's extra elevation (rad) below the fan's edge from its points (recon.pattern_fall); None: none
+        self.below_edge: Callable[[F64], float] | None = None
+        self.lowered = 0  # objects re-placed below the edge
 
     def add(self, points: F64, times: F64, arcs: F64) -> None:
         """Points (N, 3), their frame times (N,) and range arcs (N, 10, or (N, 0) without the front-slope
@@ -92,11 +96,25 @@ class ObjectStage:
             return objects
         c, out = self.config, []
         for o in objects:
-            f = make_object(o.id, replace_on_arcs(o.points, o.extra, self.spread, c.front_slope_length,
-                                                  c.front_slope_width), o.times, o.extra, o.passes)
+            pts, steepest = self._below_edge(o)
+            f = make_object(o.id, replace_on_arcs(pts, o.extra, self.spread, c.front_slope_length, c.front_slope_width,
+                                                  steepest=steepest), o.times, o.extra, o.passes)
             out.append(replace(f, centroid=far_side_centre(f.centroid, f.points, f.extra, c.far_side),
                                seabed_depth=o.seabed_depth))
         return out
+
+    def _below_edge(self, o: DetectedObject) -> tuple[F64, F64 | None]:
+        """The object's points re-placed on their arcs below the elevation each was placed at, by the extra
+        elevation its brightness was seen at (:attr:`below_edge`), and those elevations (rad); the points
+        unchanged and None when that is 0 or unknown."""
+        if self.below_edge is None or not is_arc_record(o.extra, o.points.shape[0]):
+            return o.points, None
+        extra = self.below_edge(o.points)
+        if not extra > 0.0:
+            return o.points, None
+        self.lowered += 1
+        phi = arc_elevations(o.points, o.extra) + extra
+        return points_at(o.extra, phi), phi
 
     def poll(self, vehicle_position: ArrayLike, t_now: float) -> list[DetectedObject]:
         """Streaming: the objects the vehicle at ``vehicle_position`` is past at ``t_now``, final from now on."""

@@ -64,6 +64,18 @@ def arc_columns(geometry: SonarGeometry, frame: NDArray[np.int64], beam: NDArray
 def steepest_points(arcs: F64, spread: float) -> F64:
     """The uncorrected (steepest-ray, phi = +spread/2, exact geometry) points of ``arcs`` (N, 10): e.g. the cloud
     a classifier trained on uncorrected highlight-extension clouds expects (``DetectedObject.extra``)."""
+    return points_at(arcs, 0.5 * spread)
+
+
+def points_at(arcs: F64, phi: float | F64) -> F64:
+    """The points of ``arcs`` (N, 10) at elevation ``phi`` (rad below the fan's axis, one or (N,), exact geometry)."""
     a = RangeArcs.of(arcs)
-    h = 0.5 * spread
-    return np.asarray(a.origin + a.range_m[:, None] * (np.cos(h) * a.u + np.sin(h) * a.w), dtype=np.float64)
+    ph = np.asarray(phi, dtype=np.float64).reshape(-1, 1) if np.ndim(phi) else float(phi)
+    return np.asarray(a.origin + a.range_m[:, None] * (np.cos(ph) * a.u + np.sin(ph) * a.w), dtype=np.float64)
+
+
+def arc_elevations(points: F64, arcs: F64) -> F64:
+    """The elevation (rad below the fan's axis, (N,)) of each of ``points`` (N, 3) on its arc (N, 10)."""
+    a = RangeArcs.of(arcs)
+    d = np.asarray(points, dtype=np.float64).reshape(-1, 3) - a.origin
+    return np.asarray(np.arctan2(np.einsum("ni,ni->n", d, a.w), np.einsum("ni,ni->n", d, a.u)), dtype=np.float64)

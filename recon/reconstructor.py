@@ -27,8 +27,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from recon.beam_edge import BeamEdge, frame_edges
+from recon.beam_edge import MIN_FRAMES, WINDOW_FRAMES, BeamEdge, frame_edge_profile
 from recon.cluster import DetectedObject
+from recon.echo_mosaic import EchoMosaic
 from recon.errors import GeometryError
 from recon.frames import check_attitude
 from recon.highlight import (
@@ -42,6 +43,7 @@ from recon.highlight import (
 )
 from recon.object_stage import ObjectStage
 from recon.onset_stage import OnsetStage
+from recon.pattern_fall import FALL_FRACTIONS, PatternFall
 from recon.range_arcs import arc_columns
 from recon.recon_config import ReconConfig
 from recon.seabed import SeabedModel
@@ -76,12 +78,17 @@ class Reconstructor:
         self.nominal_geometry = geometry
         #: the effective lower edge of the fan, from the seabed onset against the DVL altitude (recon.beam_edge)
         self.beam_edge = BeamEdge(0.5 * geometry.spread)
+        self.pattern_fall = PatternFall(WINDOW_FRAMES, MIN_FRAMES)  # the pattern beyond the edge (recon.pattern_fall)
+        self.mosaic = EchoMosaic()  # the seabed band's echo over the seabed's (recon.echo_mosaic)
+        self._planes: tuple[F64, F64] | None = None  # the seabed planes of the latest batch's frames
         self.poses = poses
         self.config = config or ReconConfig()
         self.dvl_max_pitch = dvl_max_pitch
         self.memory = SeabedMemory(self.config.seabed, SEABED_TEXTURE)  # seabed samples (recon.seabed_memory)
         self._onsets = OnsetStage(geometry, self.config, self.memory)
         self._objects = ObjectStage(self.config, self.memory, geometry.spread)
+        if self.config.calibrate and self.config.below_edge:
+            self._objects.below_edge = self._below_edge
         self.frames = 0
         self.frames_with_points = 0
         #: frames with a band bright across most of the fan before the seabed (interference; no points from it)
@@ -124,6 +131,8 @@ class Reconstructor:
         # the grey level at which the seabed shows at the effective edge (recon.beam_edge): no return is fainter
         floor = self.beam_edge.level if cfg.calibrate else float("nan")
         onsets = self._onsets.run(self.frames, imgs, pos, rot, alt, floor)  # 1. onset
+        if self._planes is not None and cfg.below_edge:
+            self.mosaic.add(imgs, g, onsets.onset, pos, rot, *self._planes)
         hc = cfg.highlight
         limits = onset_rows(g, onsets.onset, hc.margin_m)
         if cfg.calibrate and not np.isfinite(floor):
@@ -144,6 +153,11 @@ class Reconstructor:
         self.points_total += int(fi.size)
         self._t_last = max(self._t_last, float(ts.max(initial=-np.inf)))
         return int(fi.size)
+
+    def _below_edge(self, points: F64) -> float:
+        """Extra elevation (rad) below the edge at which an object of these points was seen: its brightness over
+        the seabed (:mod:`recon.echo_mosaic`) through the pattern's measured fall (:mod:`recon.pattern_fall`)."""
+        return float(self.pattern_fall.extra(self.mosaic.excess(points)))
 
     def _row_thresholds(self, imgs: NDArray[np.uint8], background: F64, limits: I64) -> F64:
         """(F, bins) thresholds of the highlight search: at least the onset stage's ``background`` (the water,
@@ -169,8 +183,12 @@ class Reconstructor:
         # survey over a 5 deg slope, a 1.4 deg wider edge)
         dvl = np.column_stack([pos[:, :2], pos[:, 2] + alt])
         point = np.where(np.isfinite(alt)[:, None], dvl, point)
-        edges, levels = frame_edges(imgs, nominal, pos, rot, point, normal)
-        half = self.beam_edge.update(edges, nominal.tilt, levels)
+        self._planes = (point, normal)
+        fractions = FALL_FRACTIONS if self.config.below_edge else FALL_FRACTIONS[:1]
+        profile, levels, steps = frame_edge_profile(imgs, nominal, pos, rot, point, normal, fractions)
+        half = self.beam_edge.update(profile[:, 0], nominal.tilt, levels)
+        if self.config.below_edge:
+            self.pattern_fall.update(profile, steps)
         if half != 0.5 * self.geometry.spread:
             self.geometry = replace(nominal, spread=2.0 * half)
             self._onsets.geometry = self.geometry
