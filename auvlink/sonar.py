@@ -215,12 +215,12 @@ DATA_SHEETS: dict[tuple[str, str], tuple[float, int, float, str, float, float, f
     ("aris3000", "low"): (1.8e6, 64, 0.0, "aris", 14.0, 0.5, 15.0, 512, "aris3000"),
     # Blueprint Subsea Oculus M750d data sheet: 1.2 MHz 70 x 12 deg, 512 beams, 0.6 deg angular resolution,
     # 2.5 mm range resolution, 40 m; 750 kHz 130 x 20 deg, 512 beams, 1 deg, 4 mm, 120 m
-    ("oculus-m750d", "high"): (1.2e6, 512, 35.0, "arcsine", 12.0, 0.6, 40.0, 0.0025, "ideal"),
-    ("oculus-m750d", "low"): (750e3, 512, 65.0, "arcsine", 20.0, 1.0, 120.0, 0.004, "ideal"),
+    ("oculus-m750d", "high"): (1.2e6, 512, 35.0, "arcsine", 12.0, 0.6, 40.0, 0.0025, "oculus-m750d"),
+    ("oculus-m750d", "low"): (750e3, 512, 65.0, "arcsine", 20.0, 1.0, 120.0, 0.004, "oculus-m750d"),
     # Blueprint Subsea Oculus M1200d data sheet: 2.1 MHz 60 x 12 deg, 512 beams, 0.4 deg, 2.5 mm, 10 m;
     # 1.2 MHz 130 x 20 deg, 512 beams, 0.6 deg, 2.5 mm, 30 m
-    ("oculus-m1200d", "high"): (2.1e6, 512, 30.0, "arcsine", 12.0, 0.4, 10.0, 0.0025, "ideal"),
-    ("oculus-m1200d", "low"): (1.2e6, 512, 65.0, "arcsine", 20.0, 0.6, 30.0, 0.0025, "ideal"),
+    ("oculus-m1200d", "high"): (2.1e6, 512, 30.0, "arcsine", 12.0, 0.4, 10.0, 0.0025, "oculus-m1200d"),
+    ("oculus-m1200d", "low"): (1.2e6, 512, 65.0, "arcsine", 20.0, 0.6, 30.0, 0.0025, "oculus-m1200d"),
 }
 
 

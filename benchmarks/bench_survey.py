@@ -10,8 +10,9 @@ to match, overall, per factor bin (one plot per factor in the report) and failur
 Quick: 8 surveys; ``--full``: 40 (the issue's acceptance size); smoke: 2 small surveys (2 lines,
 2 objects). Seed 1 throughout. Two worker processes. Nothing is cached.
 
-``tradeoffs`` (docs/BENCHMARKS.md): per acoustic profile (``ideal``, each sonar's, and ``random``: the whole
-acoustic space, :mod:`auvlink.evaluation.acoustic_draw`), the same surveys simulated and replayed under it:
+``tradeoffs`` (docs/BENCHMARKS.md): per acoustic profile (``ideal``, each sonar's flown with that sonar, and
+``random``: the whole acoustic space, :mod:`auvlink.evaluation.acoustic_draw`), the same surveys simulated and
+replayed under it:
 wall seconds per sonar frame (simulate + replay) against 1 - F1 at 1 m (class must match). Quick: 2 small
 surveys per profile; ``--full``: 8 surveys; smoke: ``ideal`` from the 2 small surveys above, 1 small survey under
 ``random`` (the first of those, its acoustics drawn).
@@ -26,7 +27,7 @@ from typing import Any
 
 from _common import script_main, smoke, table, write_json
 
-from auvlink.evaluation.acoustic_draw import SPACES
+from auvlink.evaluation.acoustic_draw import SPACES, models_of
 from auvlink.evaluation.survey_scores import BINS
 from auvlink.evaluation.surveys import run_surveys
 from auvlink.evaluation.tables import plot, text_table
@@ -50,7 +51,7 @@ def acoustic_tradeoffs(mode: str, folder: Path, workers: int, ideal: dict[str, A
     for space in spaces:
         result = ideal if mode == "smoke" and space == "ideal" else run_surveys(
             n, SEED, folder / f"acoustics-{space}", workers=workers, progress=False, small=mode != "full",
-            acoustics=space)
+            acoustics=space, sonar=(models_of(space) or ("didson",))[0])
         recs, o = result["surveys"], result["overall"]
         frames = sum(r["sonar_frames"] for r in recs)
         wall = sum(r["sim_wall_s"] + r["replay_wall_s"] for r in recs)

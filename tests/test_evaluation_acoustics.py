@@ -22,18 +22,21 @@ from auvlink.evaluation.acoustic_draw import (
     acoustic_bin,
     by_acoustic_factor,
     draw_acoustics,
+    models_of,
+    profile_of,
 )
 from auvlink.evaluation.draw import draw_survey
 from auvlink.evaluation.surveys import summarize
 from auvlink.evaluation.tables import rows, text_table
 from auvlink.sim.acoustics import PROFILE_VALUES, resolve
-from auvlink.sim.scene import loads_scene
+from auvlink.sim.scene import SIMULATED_MODELS, loads_scene
 
 SCHEMA = Path(__file__).resolve().parents[1] / "docs" / "schemas" / "scene.schema.json"
 
 
 def _random_draws(seed: int, n: int) -> list:
-    return [draw_acoustics("random", seed, i, 8.0) for i in range(n)]
+    """``n`` random draws, survey ``i`` flown with the ``i``-th simulated model in turn."""
+    return [draw_acoustics("random", seed, i, 8.0, SIMULATED_MODELS[i % len(SIMULATED_MODELS)]) for i in range(n)]
 
 
 def test_random_draws_cover_the_documented_ranges() -> None:
@@ -44,6 +47,7 @@ def test_random_draws_cover_the_documented_ranges() -> None:
         # 400 uniform draws reach within 3 % of the range of both ends
         assert min(values) < lo + 0.03 * (hi - lo) and max(values) > hi - 0.03 * (hi - lo), name
     assert {a.profile for a in draws} == set(SONAR_PROFILES)
+    assert all(a.profile == profile_of(SIMULATED_MODELS[i % len(SIMULATED_MODELS)]) for i, a in enumerate(draws))
     assert {a.vertical_pattern for a in draws} == set(PATTERNS)
     # the sidelobe level and the gain offset span the issue's ranges
     assert min(a.sidelobe_db for a in draws) < -34.0 and max(a.sidelobe_db for a in draws) > -16.0
@@ -73,7 +77,7 @@ def test_the_survey_draw_of_a_seed_is_the_one_of_the_code_before_acoustics(space
                 (7, 3): (524468721, 24.71, 42.62, 8.49, ("half_pipe", 1.209, 10.839, 90.3)),
                 (7302, 5): (718511999, 51.61, 34.87, 8.87, ("pipe", 11.036, -10.398, 28.6))}
     for (seed, index), values in expected.items():
-        draw_acoustics(space, seed, index, 8.0)  # drawing the acoustics first changes nothing
+        draw_acoustics(space, seed, index, 8.0, (models_of(space) or ("didson",))[0])  # changes nothing
         d = draw_survey(seed, index)
         assert (d.seed, d.depth, d.tilt_deg, d.window_length, d.objects[0]) == values
 
@@ -81,7 +85,7 @@ def test_the_survey_draw_of_a_seed_is_the_one_of_the_code_before_acoustics(space
 def test_ideal_writes_no_table_and_a_profile_only_its_name() -> None:
     assert draw_acoustics("ideal", 1, 0, 8.0).table_toml() == ""
     assert draw_acoustics("ideal", 1, 0, 8.0).factors() == {}
-    d = draw_acoustics("aris1800", 1, 0, 8.0)
+    d = draw_acoustics("aris1800", 1, 0, 8.0, "aris1800")
     assert tomllib.loads(d.table_toml()) == {"acoustics": {"profile": "aris1800"}}
     assert d.factors() == {"profile": "aris1800"}
     with pytest.raises(ValueError, match="oculus"):

@@ -17,8 +17,9 @@ and ``DIR/surveys.png`` and prints the table, then per true class its recall, fa
 objects were called (``--json``: the pooled figures as JSON). Default seed 1. ``--acoustics SPACE``: the
 acoustic conditions drawn with each survey (:mod:`auvlink.evaluation.acoustic_draw`): ``ideal`` (the default for
 now, so figures stay comparable with earlier runs), ``random`` (profile, beam patterns, sidelobes, pulse, gain,
-TVG error, noise floor, interference drawn per survey; one factor row each) or a sonar profile name; with
-``--recon`` the passes are rendered under that profile. ``--sonar MODEL``: the sonar model flown
+TVG error, noise floor, interference drawn over the profile of each survey's sonar model; one factor row each) or
+a sonar profile name (with ``--surveys`` only for that profile's own ``--sonar``: another is refused before any
+work); with ``--recon`` the passes are rendered under that profile. ``--sonar MODEL``: the sonar model flown
 (:func:`auvlink.evaluation.draw.survey_sonar`; ``random``: one simulated model per survey).
 
 ``--clutter-sweep`` (with ``--surveys``): also measure the clutter threshold on those surveys
@@ -45,7 +46,7 @@ from typing import TYPE_CHECKING
 from auvlink.atomic import check_output_dir, check_output_file, write_text
 from auvlink.cli.survey_options import check_survey_options
 from auvlink.errors import AuvlinkError
-from auvlink.evaluation.acoustic_draw import SPACES
+from auvlink.evaluation.acoustic_draw import SPACES, check_pairing
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
 from auvlink.sim.scene import SIMULATED_MODELS
@@ -71,9 +72,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--small", action="store_true", help="--surveys: 2 lines and 2 objects each (CI smoke)")
     p.add_argument("--keep-logs", action="store_true", help="--surveys: keep each survey's mission.mcap")
     p.add_argument("--acoustics", choices=SPACES, default="ideal", metavar="SPACE",
-                   help="--surveys: acoustic conditions per survey: random (the whole acoustic space), ideal "
-                        "(default for now, comparable with earlier figures; random once recon is ready) or a "
-                        f"fixed sonar profile ({', '.join(SPACES[2:])})")
+                   help="--surveys: acoustic conditions per survey: random (the whole acoustic space over each "
+                        "survey's sonar model's profile), ideal (default for now, comparable with earlier figures; "
+                        f"random once recon is ready) or a fixed sonar profile ({', '.join(SPACES[2:])}: with its own "
+                        "--sonar model only)")
     p.add_argument("--sonar", choices=(*SIMULATED_MODELS, "random"), default="didson",
                    help="--surveys: the sonar model flown (random: one per survey; default didson)")
     p.add_argument("--clutter-sweep", action="store_true",
@@ -92,6 +94,11 @@ EVAL_OUTPUTS = frozenset({"eval.json", "confusion.png", "baseline2d.json", "base
 
 def run(args: argparse.Namespace) -> int:
     check_survey_options(("--surveys", args.surveys), ("--seed", args.seed), args.workers)  # before any work
+    if args.surveys is not None:
+        try:
+            check_pairing(args.acoustics, args.sonar)
+        except ValueError as exc:
+            raise AuvlinkError(str(exc)) from exc
     refuse_input_overwrite([args.model], folder=("--out", args.out),
                            writes=lambda rel: rel.parts[0] in EVAL_OUTPUTS)
     with output_dir_lock(args.out, force=args.force):  # DIR is this run's until it ends

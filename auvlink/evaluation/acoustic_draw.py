@@ -1,9 +1,11 @@
 """Acoustic conditions drawn with each random survey (``auvlink eval --surveys N --acoustics SPACE``).
 
 ``SPACE`` is ``ideal`` (the idealized model, no ``[acoustics]`` table: the scene of
-:mod:`auvlink.evaluation.draw` unchanged), a sonar profile name (``didson``, ``aris1800``,
-``aris3000``: that profile's values as they are), or ``random``: a realistic profile drawn uniformly
-and every value below drawn uniformly in its range and written over it (:data:`ACOUSTIC_SPACE`):
+:mod:`auvlink.evaluation.draw` unchanged), a sonar profile name (``didson``, ``aris1800``, ``aris3000``,
+``oculus-m750d``, ``oculus-m1200d``: that profile's values as they are, for surveys flown with its own
+sonar model only: :func:`check_pairing` refuses another), or ``random``: the realistic profile of the
+survey's sonar model (:func:`profile_of`) with every value below drawn uniformly in its range and
+written over it (:data:`ACOUSTIC_SPACE`):
 
 - ``vertical_pattern`` (uniform hard edge, gaussian, sinc^2) and ``vertical_extent`` (elevations
   integrated in multiples of the -3 dB width: the energy beyond the nominal edge);
@@ -13,7 +15,9 @@ and every value below drawn uniformly in its range and written over it (:data:`A
 
 The draw of survey ``i`` comes from its own generator, seeded ``(seed, i, ACOUSTIC_STREAM)``: the survey
 draw (its generator seeded ``(seed, i, 0x5A17E7)``) is the same under every ``SPACE``, and the same seed gives
-the same acoustics. Units and physics of each key: docs/ACOUSTICS.md.
+the same acoustics. The stream still draws the profile index it once drew (:data:`FORMER_PROFILE_CHOICES`) and
+ignores it, so every factor of a seed draws the values it drew when the profile was drawn apart from the
+model. Units and physics of each key: docs/ACOUSTICS.md.
 """
 
 from __future__ import annotations
@@ -26,12 +30,17 @@ import numpy as np
 
 from auvlink.evaluation.survey_scores import pool
 from auvlink.sim.acoustics import PROFILES
+from auvlink.sim.scene import SIMULATED_MODELS
 from auvlink.sim.sonar_geometry import N_BINS
+from auvlink.sonar import describe
 
 #: the SeedSequence entropy word of the acoustic stream (any value other than the survey draw's 0x5A17E7)
 ACOUSTIC_STREAM = 0xAC0571C
-#: realistic profiles a random draw starts from (every supported sonar but the idealized model)
+#: realistic profiles a random draw starts from (every supported sonar's; the idealized model is none)
 SONAR_PROFILES: tuple[str, ...] = tuple(p for p in PROFILES if p != "ideal")
+#: how many profiles the stream's first draw chose among before the profile followed the sonar model (didson,
+#: aris1800, aris3000): still drawn, and ignored, so the factors after it keep their values for a seed
+FORMER_PROFILE_CHOICES = 3
 SPACES: tuple[str, ...] = ("random", *PROFILES)
 PATTERNS: tuple[str, ...] = ("uniform", "gaussian", "sinc2")  # auvlink.sim.acoustics.PatternShape
 
@@ -102,14 +111,44 @@ class AcousticDraw:
 IDEAL = AcousticDraw(profile="ideal")
 
 
-def draw_acoustics(space: str, seed: int, index: int, window_length: float) -> AcousticDraw:
-    """Survey ``index``'s acoustics in ``space`` (module docstring) for a range window ``window_length`` m long."""
+def profile_of(model: str) -> str:
+    """The realistic acoustic profile of a sonar model: its data sheet's (:data:`auvlink.sonar.DATA_SHEETS`)."""
+    return describe(model).acoustic_profile
+
+
+def models_of(profile: str) -> tuple[str, ...]:
+    """The simulated sonar models whose realistic profile is ``profile`` (none for ``ideal``)."""
+    return tuple(m for m in SIMULATED_MODELS if profile_of(m) == profile)
+
+
+def check_pairing(space: str, sonar: str) -> None:
+    """Refuse a fixed profile ``space`` for surveys flown with ``sonar`` (a model or ``random``) it does not
+    describe: ``ValueError`` naming both options and the fix. ``ideal`` and ``random`` pair with any model."""
+    if space in ("ideal", "random"):
+        return
     if space not in SPACES:
         raise ValueError(f"acoustic space {space!r}: expected one of {', '.join(SPACES)}")
+    own = models_of(space)
+    if sonar not in own:
+        flown = "a model drawn per survey" if sonar == "random" else f"the {sonar}"
+        raise ValueError(f"--acoustics {space} is the profile of {' / '.join(own)} but --sonar {sonar} flies {flown}: "
+                         f"use --acoustics random (each survey its own model's profile) or ideal, "
+                         f"or --sonar {own[0]}")
+
+
+def draw_acoustics(space: str, seed: int, index: int, window_length: float, model: str = "didson") -> AcousticDraw:
+    """Survey ``index``'s acoustics in ``space`` (module docstring) for a range window ``window_length`` m long,
+    the survey flown with the sonar ``model`` (whose profile a ``random`` draw starts from)."""
+    if space not in SPACES:
+        raise ValueError(f"acoustic space {space!r}: expected one of {', '.join(SPACES)}")
+    if space == "ideal":
+        return IDEAL
+    check_pairing(space, model)
     if space != "random":
         return AcousticDraw(profile=space)
     rng = np.random.default_rng(np.random.SeedSequence([seed, index, ACOUSTIC_STREAM]))
-    profile = SONAR_PROFILES[int(rng.integers(len(SONAR_PROFILES)))]
+    rng.integers(FORMER_PROFILE_CHOICES)  # the former profile draw, ignored: the later factors keep their values
+    profile = profile_of(model)
     pattern = PATTERNS[int(rng.integers(len(PATTERNS)))]
     v = {name: float(rng.uniform(lo, hi)) for name, (lo, hi) in ACOUSTIC_SPACE.items()}
     bin_m = window_length / N_BINS

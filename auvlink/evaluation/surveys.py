@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from auvlink.evaluation.acoustic_draw import IDEAL, AcousticDraw, by_acoustic_factor, draw_acoustics
+from auvlink.evaluation.acoustic_draw import IDEAL, AcousticDraw, by_acoustic_factor, check_pairing, draw_acoustics
 from auvlink.evaluation.clutter_sweep import GRID, apply_rule, best_threshold, model_threshold, sweep, write_calibrated
 from auvlink.evaluation.draw import SurveyDraw, draw_surveys
 from auvlink.evaluation.survey_scores import by_class, by_factor, pool, score_survey
@@ -121,7 +121,9 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
     """Run ``n`` surveys of the draw ``seed`` into ``out``; returns (and writes) ``surveys.json``'s content.
     ``small``: the CI smoke draw (:func:`auvlink.evaluation.draw.draw_survey`); ``clutter_sweep``: see the module
     docstring; ``acoustics``: the acoustic space (:func:`auvlink.evaluation.acoustic_draw.draw_acoustics`);
-    ``sonar``: the model flown (:func:`auvlink.evaluation.draw.survey_sonar`)."""
+    ``sonar``: the model flown (:func:`auvlink.evaluation.draw.survey_sonar`); a fixed profile with a model it does
+    not describe raises ``ValueError`` (:func:`auvlink.evaluation.acoustic_draw.check_pairing`) before any work."""
+    check_pairing(acoustics, sonar)
     if model is not None:  # every field checked before the first survey is simulated (minutes)
         from classify.checkpoint import read_checkpoint
 
@@ -129,7 +131,7 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
     draws = draw_surveys(n, seed, small, sonar)
     at = model_threshold(model) if clutter_sweep else None
     jobs = [SurveyJob(d, out / "surveys" / f"{d.index:03d}", model, keep_logs, at,
-                      draw_acoustics(acoustics, seed, d.index, d.window_length)) for d in draws]
+                      draw_acoustics(acoustics, seed, d.index, d.window_length, d.sonar)) for d in draws]
     for j in jobs:  # a folder of an earlier run would mix its files with this run's
         if j.folder.exists():
             shutil.rmtree(j.folder)

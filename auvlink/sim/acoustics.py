@@ -3,8 +3,11 @@
 ``profile`` names a parameter set; every other key overrides one value of it. ``ideal`` (the default,
 also when the table is absent) is the idealized model of :mod:`auvlink.sim.speckle` (K rays per beam
 with a hard vertical edge, one azimuth per beam, no pulse, fixed gain), byte for byte; it takes no
-overrides. The realistic profiles (``didson``, ``aris1800``, ``aris3000``) are rendered by
-:mod:`auvlink.sim.acoustic_image`; the physics of each key and its unit (docs/ACOUSTICS.md):
+overrides. The realistic profiles (``didson``, ``aris1800``, ``aris3000``, ``oculus-m750d``,
+``oculus-m1200d``: each sonar model's own, :attr:`auvlink.sonar.SonarDescription.acoustic_profile`) are
+rendered by :mod:`auvlink.sim.acoustic_image`; a profile's values are those of the frequency mode the scene's
+sonar flies (:data:`MODE_VALUES`: the Oculus' low-frequency mode differs). The physics of each key and its
+unit (docs/ACOUSTICS.md):
 
 - vertical beam pattern (two-way power against elevation): ``vertical_pattern`` (``uniform`` hard
   edge, ``gaussian``, ``sinc2`` = the sinc^2 of a uniformly weighted aperture, first sidelobe
@@ -34,6 +37,7 @@ overrides. The realistic profiles (``didson``, ``aris1800``, ``aris3000``) are r
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import Annotated, Any, Literal
 
@@ -41,11 +45,12 @@ from pydantic import Field
 from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
+from auvlink.sonar import describe
 from auvlink.validation import CONFIG, Integer, Number
 
-ProfileName = Literal["ideal", "didson", "aris1800", "aris3000"]
+ProfileName = Literal["ideal", "didson", "aris1800", "aris3000", "oculus-m750d", "oculus-m1200d"]
 PatternShape = Literal["uniform", "gaussian", "sinc2"]
-PROFILES: tuple[ProfileName, ...] = ("ideal", "didson", "aris1800", "aris3000")
+PROFILES: tuple[ProfileName, ...] = ("ideal", "didson", "aris1800", "aris3000", "oculus-m750d", "oculus-m1200d")
 
 
 @dataclass(frozen=True)
@@ -94,6 +99,24 @@ _COMMON: dict[str, Any] = {
     "display_range_db": 60.0,
 }
 
+#: what the Oculus data sheets leave out, shared by both models and modes (issue 36's documented ranges)
+_OCULUS: dict[str, Any] = {
+    "vertical_pattern": "sinc2",  # shape not on the data sheet: a flat array's uniformly weighted element height
+    "sidelobe_db": -20.0,  # not on the data sheet: receive-only beamforming under a wide transmit fan (one-way
+    # sidelobes, not a lens' two-way): the harsher half of issue 36's -15 to -35 dB, 5 dB above the DIDSON's
+    "gain_jitter_db": 3.0,  # as DIDSON (the operator's gain setting, in % on the Oculus)
+    "speckle_looks": 2.0,  # not on the data sheet: as the ARIS sample's grey-level spread (same log display)
+}
+
+
+def _width_in_beams(model: str, mode: str) -> float:
+    """The data sheet's angular resolution (deg) in beam spacings at the boresight: a sine-law table's spacing
+    widens off the boresight as a phased array's beams do, so one width in spacings holds across the fan."""
+    d = describe(model, mode)
+    spacing = math.degrees(2.0 * math.sin(math.radians(d.half_fov_deg)) / (d.n_beams - 1))
+    return d.beam_width_deg / spacing
+
+
 #: the realistic profiles; each value's source in its comment
 PROFILE_VALUES: dict[str, dict[str, Any]] = {
     "didson": {  # Sound Metrics DIDSON 300 m data sheet, identification mode (1.8 MHz, 96 beams)
@@ -129,6 +152,39 @@ PROFILE_VALUES: dict[str, dict[str, Any]] = {
         "gain_jitter_db": 3.0,  # as DIDSON (same operator gain control)
         "speckle_looks": 2.0,  # local grey-level spread of the ARIS sample frames (tests/test_sim_acoustics)
     },
+    "oculus-m750d": {  # Blueprint Subsea Oculus M750d data sheet, high-frequency mode (1.2 MHz, 512 beams over 70 deg)
+        **_COMMON,
+        **_OCULUS,
+        "vertical_width_deg": 12.0,  # data sheet: 12 deg vertical aperture
+        "azimuth_width_beams": round(_width_in_beams("oculus-m750d", "high"), 2),  # data sheet: 0.6 deg resolution
+        "pulse_m": 0.0025,  # data sheet: 2.5 mm range resolution, taken as c tau / 2
+        "absorption_db_per_m": 0.4,  # Francois-Garrison pure-water term, 1.2 MHz, 10 degC (0.9 x (1.2 / 1.8)^2)
+    },
+    "oculus-m1200d": {  # Blueprint Subsea Oculus M1200d data sheet, high-frequency mode (2.1 MHz, 512 beams, 60 deg)
+        **_COMMON,
+        **_OCULUS,
+        "vertical_width_deg": 12.0,  # data sheet: 12 deg vertical aperture
+        "azimuth_width_beams": round(_width_in_beams("oculus-m1200d", "high"), 2),  # data sheet: 0.4 deg resolution
+        "pulse_m": 0.0025,  # data sheet: 2.5 mm range resolution, taken as c tau / 2
+        "absorption_db_per_m": 1.2,  # Francois-Garrison pure-water term, 2.1 MHz, 10 degC (0.9 x (2.1 / 1.8)^2)
+    },
+}
+
+#: (profile, frequency mode) -> the values that differ in that mode (the profiles above are the high mode's; the
+#: DIDSON's and ARIS' low modes keep the vertical width, and their beam width is one beam spacing in either mode)
+MODE_VALUES: dict[tuple[str, str], dict[str, Any]] = {
+    ("oculus-m750d", "low"): {  # data sheet, low-frequency mode: 750 kHz, 130 x 20 deg, 1 deg, 4 mm
+        "vertical_width_deg": 20.0,
+        "azimuth_width_beams": round(_width_in_beams("oculus-m750d", "low"), 2),
+        "pulse_m": 0.004,
+        "absorption_db_per_m": 0.16,  # pure-water term at 750 kHz (0.9 x (0.75 / 1.8)^2)
+    },
+    ("oculus-m1200d", "low"): {  # data sheet, low-frequency mode: 1.2 MHz, 130 x 20 deg, 0.6 deg, 2.5 mm
+        "vertical_width_deg": 20.0,
+        "azimuth_width_beams": round(_width_in_beams("oculus-m1200d", "low"), 2),
+        "pulse_m": 0.0025,
+        "absorption_db_per_m": 0.4,  # pure-water term at 1.2 MHz (as the M750d's high mode)
+    },
 }
 
 Db = Annotated[Number, Field(ge=-100.0, le=50.0, description="dB")]
@@ -143,7 +199,7 @@ class AcousticsTable:
     vertical_width_deg: Annotated[Number | None, Field(gt=0.0, le=60.0, description="-3 dB full width, deg")] = None
     vertical_extent: Annotated[Number | None, Field(ge=1.0, le=4.0, description="integrated, x width")] = None
     elevation_samples: Annotated[Integer | None, Field(ge=8, le=256, description="per beam")] = None
-    azimuth_width_beams: Annotated[Number | None, Field(gt=0.0, le=4.0, description="-3 dB, beams")] = None
+    azimuth_width_beams: Annotated[Number | None, Field(gt=0.0, le=8.0, description="-3 dB, beams")] = None
     sidelobe_db: Annotated[Number | None, Field(ge=-80.0, le=-5.0, description="two-way, dB re main lobe")] = None
     pulse_m: Annotated[Number | None, Field(ge=0.0, le=1.0, description="range extent c tau / 2, m")] = None
     seabed_backscatter_db: Annotated[Number | None, Field(ge=-60.0, le=0.0, description="Lambert mu, dB")] = None
@@ -163,8 +219,17 @@ class AcousticsTable:
     display_range_db: Annotated[Number | None, Field(ge=10.0, le=120.0, description="dB")] = None
 
 
-def resolve(table: AcousticsTable | None) -> Acoustics | None:
-    """The realistic model's parameters for a scene's table; ``None`` for the ``ideal`` profile.
+def profile_named(name: str) -> ProfileName:
+    """``name`` as one of :data:`PROFILES`; ``ValueError`` naming them for another."""
+    for p in PROFILES:
+        if p == name:
+            return p
+    raise ValueError(f"acoustic profile {name!r}: use one of {', '.join(PROFILES)}")
+
+
+def resolve(table: AcousticsTable | None, frequency_mode: str = "high") -> Acoustics | None:
+    """The realistic model's parameters for a scene's table, its profile in the sonar's ``frequency_mode``
+    (:data:`MODE_VALUES`); ``None`` for the ``ideal`` profile.
 
     The rendered vertical width is the profile's (data sheet) unless the table sets one; the scene's
     ``sonar.spread_deg`` stays what the reconstruction assumes.
@@ -176,7 +241,7 @@ def resolve(table: AcousticsTable | None) -> Acoustics | None:
             raise ConfigError(f"acoustics.{given[0]}", "the ideal profile takes no overrides",
                               f"set acoustics.profile to one of {', '.join(PROFILES[1:])} or remove the key")
         return None
-    values = dict(PROFILE_VALUES[table.profile])
+    values = {**PROFILE_VALUES[table.profile], **MODE_VALUES.get((table.profile, frequency_mode), {})}
     values.update({f.name: getattr(table, f.name) for f in fields(table)
                    if f.name != "profile" and getattr(table, f.name) is not None})
     return Acoustics(**values)

@@ -38,7 +38,7 @@ from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
 from auvlink.geodesy import JANGIL_BAY, Datum
-from auvlink.sim.acoustics import AcousticsTable, resolve
+from auvlink.sim.acoustics import AcousticsTable, profile_named, resolve
 from auvlink.sim.gnss_config import Gnss, check_gnss
 from auvlink.sonar import MAX_LEVER_M, Sonar, SonarModelName, describe
 from auvlink.validation import CONFIG, Integer, Number, Site, Vec2, Vec3, loads_toml, read_toml, validate
@@ -217,12 +217,17 @@ SIMULATED_MODELS: tuple[SonarModelName, ...] = ("didson", "aris1800", "aris3000"
 
 def with_sonar_model(scene: Scene, model: SonarModelName) -> Scene:
     """The scene flown with another sonar model (high-frequency mode): its vertical spread the model's data-sheet
-    aperture, every other sonar setting kept."""
+    aperture, a realistic ``[acoustics]`` profile the model's own (the table's overrides kept; ``ideal`` or no
+    table stays so), every other setting kept."""
     if model not in SIMULATED_MODELS:
         raise ConfigError("sonar.model", f"the simulator does not send {model} frames", f"use one of "
                           f"{', '.join(SIMULATED_MODELS)}")
-    sonar = replace(scene.sonar, model=model, spread_deg=describe(model).vertical_aperture_deg)
-    return replace(scene, sonar=sonar)
+    d = describe(model)
+    sonar = replace(scene.sonar, model=model, spread_deg=d.vertical_aperture_deg)
+    acoustics = scene.acoustics
+    if acoustics is not None and acoustics.profile != "ideal":
+        acoustics = replace(acoustics, profile=profile_named(d.acoustic_profile))
+    return replace(scene, sonar=sonar, acoustics=acoustics)
 
 
 def load_scene(path: str | Path) -> Scene:

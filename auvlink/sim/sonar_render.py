@@ -92,7 +92,7 @@ class SonarRenderer:
         self.scene, self.cull, self.speckle = scene, cull, speckle
         self.model = model if model is not None else AcousticModel()
         self.seabed = seabed if seabed is not None else SeabedSurface(scene.seabed, scene.seed)
-        self.acoustics = resolve(scene.acoustics)
+        self.acoustics = resolve(scene.acoustics, scene.sonar.frequency_mode or "high")
         self.imager: AcousticImager | None = None
         if self.acoustics is None:
             self.geometry = RayFan(scene.sonar, rays_per_beam)
