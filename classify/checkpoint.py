@@ -14,6 +14,10 @@ further models of the same config, trained from other seeds; inference averages 
 first's, :class:`classify.ensemble.Ensemble`).
 Every key is checked on load before a network is built (:mod:`classify.checkpoint_meta`: names, sizes,
 thresholds in range, no NaN anywhere).
+
+Every saved checkpoint ``X.pt`` gets its inference export ``X.npz`` beside it (:func:`write_inference_export`,
+:mod:`classify.inference_export`: the folded weights and what inference reads, for a run without PyTorch);
+:func:`export_checkpoint` writes it for an existing checkpoint.
 """
 
 from __future__ import annotations
@@ -28,6 +32,8 @@ import torch
 from auvlink.atomic import atomic_path
 from classify.checkpoint_meta import FORMAT, CheckpointMeta, check_checkpoint, network_config
 from classify.errors import CheckpointError
+from classify.inference_export import FORMAT as EXPORT_FORMAT
+from classify.inference_export import ExportMeta, export_path, sha256_file, write_export
 from classify.pointnet import PointNet
 
 
@@ -72,7 +78,39 @@ def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_p
     check_checkpoint(doc, path)  # what load_checkpoint would refuse is never written
     with atomic_path(path) as tmp:  # renamed when whole: an interrupted save never leaves half a checkpoint
         torch.save(doc, tmp)
+    write_inference_export(path, [model, *members], class_names, n_points, synthesis or {}, calibration or {})
     return path
+
+
+def write_inference_export(path: Path, models: Sequence[PointNet], class_names: Sequence[str], n_points: int,
+                           synthesis: dict[str, Any], calibration: dict[str, Any]) -> Path:
+    """Write the inference export of the checkpoint saved at ``path`` (its networks ``models``, first then the
+    further members, and its metadata) to ``X.npz`` beside it; returns that path."""
+    folded = [m.fused().cpu() for m in models]
+    layers: dict[str, tuple[Any, Any]] = {}
+    for key in folded[0].state_dict():
+        if key.endswith(".weight"):
+            name = key.removesuffix(".weight").removesuffix(".linear")
+            bias = key.removesuffix("weight") + "bias"
+            layers[name] = (torch.stack([m.state_dict()[key] for m in folded]).numpy(),
+                            torch.stack([m.state_dict()[bias] for m in folded]).numpy())
+    cfg = models[0].cfg
+    threshold = calibration.get("clutter_threshold")
+    meta = ExportMeta.model_validate({
+        "format": EXPORT_FORMAT, "source_sha256": sha256_file(path), "class_names": tuple(class_names),
+        "n_points": int(n_points), "scale_m": float(synthesis.get("scale_m", 0.0) or 0.0),
+        "z_ref": str(synthesis.get("z_ref") or "mean"),
+        "clutter_threshold": None if threshold is None else float(threshold),
+        "input_transform": cfg.input_transform, "feature_transform": cfg.feature_transform, "members": len(folded)})
+    return write_export(export_path(path), meta, layers)
+
+
+def export_checkpoint(path: Path) -> Path:
+    """Write the inference export of the existing checkpoint at ``path`` (checked whole first,
+    :func:`load_checkpoint`); returns the export's path."""
+    ck = load_checkpoint(path)
+    return write_inference_export(Path(path), [ck.model, *ck.members], ck.class_names, ck.n_points, ck.synthesis,
+                                  ck.calibration)
 
 
 def _state(model: PointNet) -> dict[str, torch.Tensor]:

@@ -19,3 +19,7 @@ class SynthesisError(ClassifyError):
 
 class CheckpointError(ClassifyError):
     """A model checkpoint is missing, unreadable or of another format."""
+
+
+class InferenceExportWarning(UserWarning):
+    """A checkpoint is classified with PyTorch because its inference export is missing, stale or unreadable."""

@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from auvlink.pipeline.object_labels import TORCH_THREADS, ObjectLabeller
 from classify.ensemble import Ensemble, StackedPointNets
-from classify.infer import turned_views
+from classify.infer import Classifier, turned_views
+from classify.numpy_infer import NumpyClassifier
 from classify.pointnet import LinearBN, PointNet, PointNetConfig
 
 
@@ -72,14 +73,13 @@ _LABELLER: list[ObjectLabeller] = []
 
 
 def _labeller() -> ObjectLabeller:
+    """The shipped model as a replay loads it: its inference export (NumPy), one BLAS thread per forward pass."""
     if not _LABELLER:
         lab = ObjectLabeller(True, None, torch_threads=TORCH_THREADS["replay"])
         threads = torch.get_num_threads()
-        try:
-            lab.load()
-            assert torch.get_num_threads() == TORCH_THREADS["replay"]
-        finally:
-            torch.set_num_threads(threads)  # the rest of this process keeps its own
+        lab.load()
+        assert isinstance(lab.classifier, NumpyClassifier) and lab.classifier.threads == TORCH_THREADS["replay"]
+        assert torch.get_num_threads() == threads  # the NumPy path leaves PyTorch's threads alone
         _LABELLER.append(lab)
     return _LABELLER[0]
 
@@ -92,9 +92,8 @@ def test_labeller_leaves_threads_alone_without_a_role() -> None:
 
 
 def test_shipped_model_stacked_is_bit_identical_on_cpu() -> None:
-    """What the golden files rest on: the stack gives the members' numbers to the bit (the same kernel per layer)."""
-    clf = _labeller().classifier
-    assert clf is not None and clf.device.type == "cpu"
+    """The PyTorch path's stack gives the members' numbers to the bit (the same kernel per layer)."""
+    clf = Classifier.load(None, device=torch.device("cpu"))
     rng = np.random.default_rng(5)
     x = turned_views(torch.from_numpy(rng.normal(size=(6, 256, 3)).astype(np.float32) * 0.4), clf.yaw_views)
     with torch.inference_mode():

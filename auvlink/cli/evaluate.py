@@ -26,7 +26,8 @@ work); with ``--recon`` the passes are rendered under that profile. ``--sonar MO
 (:mod:`auvlink.evaluation.clutter_sweep`): the figures above stay those of the model's own threshold, and a table
 gives precision, recall and F1 at every threshold from 0.30 to 0.95, the best marked (``clutter_sweep`` in
 ``surveys.json``, and in the ``--json`` output). ``--calibrated-model OUT.pt`` (implies ``--clutter-sweep``):
-write a copy of the model with the best threshold (an existing file only with ``--force``).
+write a copy of the model with the best threshold, and its inference export ``OUT.npz`` (existing files only with
+``--force``).
 
 ``--baseline2d``: also train and evaluate the paper's single-image baseline (a small 2D CNN on
 simulated sonar images of the same objects, viewing heading varied; :mod:`classify.training.baseline_eval`)
@@ -178,9 +179,12 @@ def _surveys(args: argparse.Namespace) -> int:
     calibrated = args.calibrated_model
     if calibrated is not None:
         from classify.infer import DEFAULT_MODEL
+        from classify.inference_export import export_path
 
         check_output_file(calibrated, force=args.force, inputs=[args.model or DEFAULT_MODEL],
                           option="--calibrated-model", what="checkpoint")
+        check_output_file(export_path(calibrated), force=args.force, inputs=[args.model or DEFAULT_MODEL],
+                          option="--calibrated-model", what="inference export")
     seed = 1 if args.seed is None else args.seed
     result = run_surveys(args.surveys, seed, args.out, workers=args.workers, model=args.model,
                          keep_logs=args.keep_logs, progress=not args.json,

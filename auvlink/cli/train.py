@@ -3,8 +3,14 @@
 Synthesizes training clouds from the object catalog (cached under ``--cache``), trains PointNet
 with the settings of ``--config`` (default: the shipped ``classify/data/train_default.toml``),
 evaluates on held-out synthesized clouds and writes the checkpoint (class names, synthesis
-settings, model and training configuration, metrics). An existing ``--out`` is replaced only with
-``--force`` (checked before any work); the checkpoint is written under a temporary name and renamed.
+settings, model and training configuration, metrics), and its inference export beside it (``MODEL.npz``: the folded
+weights and what inference reads, so that replay, live and batch runs classify with NumPy and never import PyTorch;
+:mod:`classify.inference_export`). An existing ``--out`` (or its ``.npz``) is replaced only with ``--force``
+(checked before any work); each file is written under a temporary name and renamed.
+
+``auvlink train --export-inference MODEL.pt`` trains nothing: it writes the inference export ``MODEL.npz`` of an
+existing checkpoint (one saved before exports were written, or whose export is stale: made from another file of
+that name). An existing ``MODEL.npz`` is replaced only with ``--force``.
 
 The clutter threshold is first calibrated on held-out synthesized clouds. ``--calibrate-surveys N``
 (``--calibrate-seed S``, default 2; ``--workers K``) then sets it where it acts: N random surveys are
@@ -25,10 +31,15 @@ from pathlib import Path
 
 from auvlink.atomic import check_output_dir, check_output_file
 from auvlink.cli.survey_options import check_survey_options
+from auvlink.errors import AuvlinkError
 from auvlink.sim.acoustics import PROFILES
+from classify.inference_export import export_path, matching_export
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--export-inference", type=Path, default=None, metavar="MODEL.pt",
+                   help="train nothing: write the inference export MODEL.npz of the existing checkpoint MODEL.pt "
+                        "(an existing MODEL.npz only with --force)")
     p.add_argument("--out", type=Path, default=Path("pointnet.pt"), help="checkpoint to write (default pointnet.pt)")
     p.add_argument("--force", action="store_true", help="replace an existing --out")
     p.add_argument("--config", type=Path, default=None,
@@ -56,7 +67,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.export_inference is not None:
+        return _export(args.export_inference, args.force)
     check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
+    check_output_file(export_path(args.out), force=args.force, inputs=[args.config], what="inference export")
     if args.calibrate_surveys is not None:
         check_survey_options(("--calibrate-surveys", args.calibrate_surveys), ("--calibrate-seed", args.calibrate_seed),
                              args.workers)
@@ -102,3 +116,19 @@ def _calibrate(args: argparse.Namespace, model: Path) -> None:
     print(f"clutter threshold on {cs['surveys']} calibration surveys (seed {seed}; 1 m, class must match):")
     print(table(cs["rows"], cs["model_threshold"], cs["best"]))
     print(f"clutter threshold {cs['model_threshold']:.2f} (held-out clouds) -> {cs['best']:.2f} (surveys)")
+
+
+def _export(checkpoint: Path, force: bool) -> int:
+    """Write the inference export of ``checkpoint`` beside it (see the module doc)."""
+    if not checkpoint.is_file():
+        raise AuvlinkError(f"--export-inference {checkpoint}: no such checkpoint")
+    out = export_path(checkpoint)
+    if matching_export(checkpoint)[0] is not None and not force:
+        print(f"inference export: {out} (already made from this checkpoint)")
+        return 0
+    check_output_file(out, force=force, inputs=[checkpoint], option="--export-inference", what="inference export")
+    from classify.checkpoint import export_checkpoint  # lazy: PyTorch loads only for this command
+
+    export_checkpoint(checkpoint)
+    print(f"inference export: {out} ({out.stat().st_size / 1e6:.2f} MB)")
+    return 0

@@ -1,10 +1,12 @@
 """Classes for the objects the engine finalizes, and its clutter rule.
 
 :class:`ObjectLabeller` classifies the objects of one emission (one clustering poll) with the classifier, loaded
-on first use (PyTorch loads only when a run classifies), and records every classification's probability of
-``clutter`` (:attr:`ObjectLabeller.scores`, what ``auvlink eval --clutter-sweep`` replays the rule on). The rule:
-an object the classifier calls clutter is not reported (its id is counted in :attr:`ObjectLabeller.clutter`); a
-later pass fused into it (same id) is classified afresh, and an id once reported is never made clutter.
+on first use (the checkpoint's inference export, run with NumPy, when it matches the checkpoint: PyTorch is then
+never imported; else the checkpoint with PyTorch, :func:`classify.numpy_infer.load_classifier`), and records every
+classification's probability of ``clutter`` (:attr:`ObjectLabeller.scores`, what ``auvlink eval --clutter-sweep``
+replays the rule on). The rule: an object the classifier calls clutter is not reported (its id is counted in
+:attr:`ObjectLabeller.clutter`); a later pass fused into it (same id) is classified afresh, and an id once reported
+is never made clutter.
 
 When an object is classified: the engine hands over an object only when recon finalizes it (the vehicle is past
 it) or when a later pass fused into it changes its points. A reported object's later pass is classified at once only
@@ -16,8 +18,9 @@ those of every object's final cloud. Nothing is classified twice for the same po
 cached by the cloud's content (a BLAKE2 digest of its float64 points and its seabed depth, :func:`cloud_key`), so an
 emission whose cloud did not change reuses them (:attr:`ObjectLabeller.forward_clouds` counts the clouds run through
 the network, :attr:`ObjectLabeller.cache_hits` the reused ones).
-PyTorch's threads are set for the process's role when the classifier loads (:data:`TORCH_THREADS`, passed by
-whoever knows the role: replay, live, a batch or evaluation worker).
+The classifier's threads are set for the process's role when it loads (:data:`TORCH_THREADS`, passed by whoever knows
+the role: replay, live, a batch or evaluation worker): NumPy's BLAS threads during each forward pass, or PyTorch's
+intra-op threads.
 :func:`make_detection` turns a finalized object and its class into the :class:`Detection` handed on.
 """
 
@@ -36,12 +39,13 @@ from classify.labels import CLUTTER
 from recon.cluster import DetectedObject
 
 if TYPE_CHECKING:
-    from classify.infer import Classifier
+    from classify.cloud_classifier import CloudClassifier
 
-#: PyTorch intra-op threads per process role. One everywhere: a poll's forward pass is small (<= 16 clouds x 4 views
+#: the classifier's threads per process role (NumPy's BLAS threads during a forward pass, or PyTorch's intra-op
+#: threads on the PyTorch path). One everywhere: a poll's forward pass is small (<= 16 clouds x 4 views
 #: x 256 points), so a second thread mostly waits, and it competes with the rest of the process and, in a batch or
 #: evaluation, with the other workers (demo clouds, this 2-core machine under load 3.5: 8 clouds in 0.21 s on one
-#: thread, 0.63-2.0 s on two; notes/replay_speed). Live: the frame path must not wait for a classification.
+#: thread, 0.63-2.0 s on two, PyTorch; notes/replay_speed). Live: the frame path must not wait for a classification.
 TORCH_THREADS = {"replay": 1, "live": 1, "batch": 1}
 #: a reported object's later pass is classified at once when its points grew by this factor since its last
 #: classification (a pass that adds a quarter more points can show a side not seen before)
@@ -63,15 +67,15 @@ def cloud_key(points: npt.ArrayLike, seabed_depth: float) -> bytes:
 
 class ObjectLabeller:
     """``enabled`` False: every object is ``unknown`` (no classifier). ``clutter_threshold`` replaces the
-    checkpoint's (None: the checkpoint's; ``math.inf``: nothing is called clutter). ``torch_threads``: PyTorch's
-    intra-op threads, set when the classifier loads (the process's role, :data:`TORCH_THREADS`; None: left as
-    they are)."""
+    checkpoint's (None: the checkpoint's; ``math.inf``: nothing is called clutter). ``torch_threads``: the
+    classifier's threads (BLAS threads of its NumPy forward pass, or PyTorch's intra-op threads), set when it loads
+    (the process's role, :data:`TORCH_THREADS`; None: left as they are)."""
 
     def __init__(self, enabled: bool, model: Path | None, clutter_threshold: float | None = None,
                  torch_threads: int | None = None) -> None:
         self.enabled, self.model, self.clutter_threshold = enabled, model, clutter_threshold
         self.torch_threads = torch_threads
-        self.classifier: Classifier | None = None
+        self.classifier: CloudClassifier | None = None
         self.clutter: set[int] = set()  # ids of the clusters called clutter (not reported)
         #: (object id, probability of clutter) of every classification, in order: an id appears once per emission
         self.scores: list[tuple[int, float]] = []
@@ -83,15 +87,13 @@ class ObjectLabeller:
         self._deferred: dict[int, DetectedObject] = {}  # id -> its latest object, classified at the end
 
     def load(self) -> None:
-        """Load the classifier now (live does it before opening the ports)."""
+        """Load the classifier now (live does it before opening the ports): the checkpoint's inference export
+        (NumPy) when it matches the checkpoint, else the checkpoint with PyTorch
+        (:func:`classify.numpy_infer.load_classifier`)."""
         if self.enabled and self.classifier is None:
-            import torch
+            from classify.numpy_infer import load_classifier  # lazy: a run that does not classify loads no model
 
-            from classify.infer import Classifier  # lazy: PyTorch loads only when a run classifies
-
-            if self.torch_threads is not None:
-                torch.set_num_threads(self.torch_threads)
-            self.classifier = Classifier.load(self.model)
+            self.classifier = load_classifier(self.model, threads=self.torch_threads)
             if self.clutter_threshold is not None:
                 self.classifier.clutter_threshold = float(self.clutter_threshold)
 
@@ -146,9 +148,10 @@ class ObjectLabeller:
         out, self._deferred = list(self._deferred.values()), {}
         return out
 
-    def probabilities(self, clf: Classifier, objects: Sequence[DetectedObject]) -> npt.NDArray[np.float32]:
+    def probabilities(self, clf: CloudClassifier, objects: Sequence[DetectedObject]) -> npt.NDArray[np.float32]:
         """Class probabilities ``(len(objects), k)``: from the cache for a cloud classified before, the others in
-        one :meth:`Classifier.probabilities` call (recon fitted the seabed for the poll; each object carries it)."""
+        one :meth:`~classify.cloud_classifier.CloudClassifier.probabilities`
+        call (recon fitted the seabed for the poll; each object carries it)."""
         keys = [cloud_key(o.points, float(o.seabed_depth)) for o in objects]
         todo = sorted({k: i for i, k in enumerate(keys) if k not in self._cache}.values())
         if todo:
