@@ -32,7 +32,7 @@ DOCS = sorted([ROOT / "README.md", ROOT / "CONTRIBUTING.md", *(ROOT / "docs").gl
 #: last parts that make a dotted word a file name, not a Python name
 FILE_SUFFIXES = frozenset({"md", "py", "json", "jsonl", "toml", "mcap", "partial", "ply", "html", "csv", "png",
                            "pt", "geojson", "kml", "txt", "bin", "nmea", "pd0", "pd6", "sh", "000", "yaml", "dbc",
-                           "npy", "stl", "obj", "gz"})
+                           "npy", "npz", "stl", "obj", "gz"})
 #: dotted names in the docs that are not Python names: MCAP schema names of the mission log (logs_format.profile)
 NOT_PYTHON = frozenset({"auvlink.Event"})
 

@@ -91,15 +91,20 @@ def default_model() -> Path:
 
 def settings_of(model: Path | None, classify: bool, report: bool, config: Path | None) -> dict[str, Any]:
     """The settings part of a mission's fingerprint: the package version, the model checkpoint's SHA-256
-    (when classifying; a ``--model`` is read and checked first, :func:`classify.checkpoint.read_checkpoint`),
+    (when classifying; a ``--model`` is read and checked first: its inference export when that matches it,
+    :func:`classify.inference_export.matching_export`, else the checkpoint,
+    :func:`classify.checkpoint.read_checkpoint`),
     the ``--config`` file's SHA-256, and the switches."""
     m = model if model is not None else default_model()
     if classify and not m.is_file():
         raise AuvlinkError(f"--model {m}: no such checkpoint")
     if classify and model is not None:  # checked once here (every field), not failed by each mission
-        from classify.checkpoint import read_checkpoint
+        from classify.inference_export import matching_export
 
-        read_checkpoint(model)
+        if matching_export(model)[0] is None:  # with a matching export the workers never load the .pt (nor torch)
+            from classify.checkpoint import read_checkpoint
+
+            read_checkpoint(model)
     if config is not None and not config.is_file():
         raise AuvlinkError(f"--config {config}: no such file")
     return {"auvlink": __version__, "classify": classify, "report": report,
