@@ -25,7 +25,7 @@ import numpy.typing as npt
 from threadpoolctl import ThreadpoolController
 
 from classify.cloud_classifier import DEFAULT_MODEL, YAW_VIEWS, CloudClassifier
-from classify.errors import InferenceExportWarning
+from classify.errors import CheckpointError, InferenceExportWarning
 from classify.inference_export import F32, InferenceExport, export_path, matching_export
 
 LOG_FLOOR = np.float32(1e-12)  # the probability floor before the log, as Ensemble.forward's clamp_min(1e-12)
@@ -61,13 +61,13 @@ def _sequence(export: InferenceExport, prefix: str) -> list[_Layer]:
     pattern = re.compile(re.escape(prefix) + r"\.(\d+)")
     found = sorted((int(m.group(1)), name) for name in export.layers if (m := pattern.fullmatch(name)))
     if not found or [i for i, _ in found] != list(range(len(found))):
-        raise ValueError(f"inference export: the layers {prefix}.0, {prefix}.1, ... are missing or have gaps")
+        raise CheckpointError(f"inference export: the layers {prefix}.0, {prefix}.1, ... are missing or have gaps")
     return [_Layer(*export.layers[name]) for _, name in found]
 
 
 def _layer(export: InferenceExport, name: str) -> _Layer:
     if name not in export.layers:
-        raise ValueError(f"inference export: layer {name!r} is missing")
+        raise CheckpointError(f"inference export: layer {name!r} is missing")
     return _Layer(*export.layers[name])
 
 
@@ -103,7 +103,9 @@ def softmax(x: F32, axis: int) -> F32:
 
 
 class NumpyStack:
-    """The export's members as one network: ``__call__(points (B, N, 3) float32) -> class probability (B, k)``."""
+    """The export's members as one network: ``__call__(points (B, N, 3) float32) -> class probability (B, k)``.
+    :class:`CheckpointError` when the export's layers do not make that network (a layer missing, sizes that do
+    not chain: tried on a two-point cloud)."""
 
     def __init__(self, export: InferenceExport) -> None:
         meta = export.meta
@@ -113,6 +115,10 @@ class NumpyStack:
         self.mlp2 = _sequence(export, "mlp2")
         self.head = _sequence(export, "head")
         self.classifier = _layer(export, "classifier")
+        try:
+            self(np.zeros((1, 2, 3), dtype=np.float32))
+        except ValueError as exc:
+            raise CheckpointError(f"inference export: its layers do not chain into a PointNet: {exc}") from exc
 
     def __call__(self, points: F32) -> F32:
         b, n, _ = points.shape
@@ -186,7 +192,10 @@ def load_classifier(path: Path | str | None = None, yaw_views: int = YAW_VIEWS,
     checkpoint = Path(path) if path is not None else DEFAULT_MODEL
     export, why = matching_export(checkpoint)
     if export is not None:
-        return NumpyClassifier(export, yaw_views, export_path(checkpoint), threads)
+        try:
+            return NumpyClassifier(export, yaw_views, export_path(checkpoint), threads)
+        except CheckpointError as exc:
+            why = f"{export_path(checkpoint)}: {exc}"
     import torch  # only on this path: a run with a matching export never loads PyTorch
 
     from classify.infer import Classifier

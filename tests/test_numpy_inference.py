@@ -193,6 +193,21 @@ def test_tampered_export_is_refused(tmp_path: Path) -> None:
         read_export(export_path(pt))
 
 
+def test_export_whose_layers_do_not_chain_falls_back_to_torch(tmp_path: Path) -> None:
+    pt = _save(tmp_path / "m.pt", 1, True)
+    with np.load(export_path(pt)) as z:
+        arrays = {k: z[k] for k in z.files}
+    del arrays["head.1.weight"], arrays["head.1.bias"]  # the head's last layer gone: its input reaches the classifier
+    with open(export_path(pt), "wb") as f:
+        np.savez(f, **arrays)
+    export = read_export(export_path(pt))  # every layer itself well-formed, and still naming this checkpoint
+    assert matching_export(pt)[0] is not None
+    with pytest.raises(CheckpointError, match="do not chain"):
+        NumpyClassifier(export)
+    with pytest.warns(InferenceExportWarning, match="do not chain"):
+        assert isinstance(load_classifier(pt), Classifier)
+
+
 def test_export_inference_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     pt = _save(tmp_path / "m.pt", 2, True)
     export_path(pt).unlink()
