@@ -19,9 +19,7 @@ after its export was made makes the export stale, and inference then runs the ch
 
 from __future__ import annotations
 
-import hashlib
 import json
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,11 +30,11 @@ import numpy.typing as npt
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from auvlink.atomic import atomic_path
+from auvlink.file_digest import sha256_file
 from classify.errors import CheckpointError
 
 FORMAT: Final = "auvlink.classify.pointnet-inference/1"
 SUFFIX = ".npz"
-HASH_BLOCK = 1 << 20  # bytes read at a time for the checkpoint's SHA-256 (memory stays at one block)
 #: most ensemble members and outputs an export may hold: those of classify.checkpoint_meta (MAX_MEMBERS + 1,
 #: MAX_CLASSES), repeated here so that reading an export does not import PyTorch
 MAX_MEMBERS = 49
@@ -73,15 +71,6 @@ class InferenceExport:
 def export_path(checkpoint: Path | str) -> Path:
     """Where the export of ``checkpoint`` lives: ``X.npz`` beside ``X.pt``."""
     return Path(checkpoint).with_suffix(SUFFIX)
-
-
-def sha256_file(path: str | os.PathLike[str]) -> str:
-    """Hex SHA-256 of a file, read in :data:`HASH_BLOCK` blocks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        while block := f.read(HASH_BLOCK):
-            h.update(block)
-    return h.hexdigest()
 
 
 def write_export(path: Path, meta: ExportMeta, layers: Mapping[str, tuple[F32, F32]]) -> Path:

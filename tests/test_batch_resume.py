@@ -13,7 +13,7 @@ import pytest
 from batch_helpers import site_logs
 
 from auvlink.cli import main
-from auvlink.pipeline.batch_mission import HASH_BLOCK, sha256_file
+from auvlink.file_digest import HASH_BLOCK, sha256_file
 
 pytestmark = pytest.mark.timeout(240)
 

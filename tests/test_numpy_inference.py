@@ -15,11 +15,12 @@ import pytest
 import torch
 
 from auvlink.cli import main
+from auvlink.file_digest import sha256_file
 from classify.checkpoint import save_checkpoint
 from classify.cloud_classifier import DEFAULT_MODEL
 from classify.errors import CheckpointError, InferenceExportWarning
 from classify.infer import Classifier
-from classify.inference_export import export_path, matching_export, read_export, sha256_file
+from classify.inference_export import export_path, matching_export, read_export
 from classify.numpy_infer import NumpyClassifier, load_classifier
 from classify.pointnet import LinearBN, PointNet, PointNetConfig
 

@@ -27,9 +27,10 @@ from typing import Any
 
 from auvlink.atomic import LOCK_NAME, check_writable_folder, write_text
 from auvlink.errors import AuvlinkError, OutputError
+from auvlink.file_digest import sha256_file
 from auvlink.jsonutil import to_jsonable
 from auvlink.pipeline.batch_guard import check_scheduler_address
-from auvlink.pipeline.batch_mission import MissionTask, Outcome, run_mission, sha256_file
+from auvlink.pipeline.batch_mission import MissionTask, Outcome, run_mission
 from auvlink.safe_names import UniqueNames, path_inside, safe_name
 from auvlink.version import __version__
 

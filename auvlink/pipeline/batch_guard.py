@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from auvlink.errors import AuvlinkError
+from auvlink.file_digest import sha256_file
 from auvlink.pipeline.mission_deadline import MissionTimeout as MissionTimeout  # raised here, caught by callers
 from auvlink.pipeline.mission_deadline import deadline
 from auvlink.pipeline.run_guard import REPLAY_OUTPUTS
@@ -47,7 +48,6 @@ from logs_format.records import MAGIC
 #: default ``--mission-timeout`` (s): a 30-minute mission replays in about 30 s on one worker (RESULTS.md,
 #: 65x real time), so 2 h leaves room for a mission a hundred times longer, or a much slower worker
 DEFAULT_MISSION_TIMEOUT_S = 7200.0
-HASH_BLOCK = 1 << 20  # bytes read at a time for an output's checksum
 RECORD_FILE = "batch.json"
 SEAL_KEY = "record_sha256"
 PORTLESS_PROTOCOLS = ("inproc",)  # distributed's in-process transport: an address without a port
@@ -152,18 +152,10 @@ def _importing() -> bool:
     return any(getattr(getattr(m, "__spec__", None), "_initializing", False) for m in list(sys.modules.values()))
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        while block := f.read(HASH_BLOCK):
-            h.update(block)
-    return h.hexdigest()
-
-
 def output_digests(folder: Path) -> dict[str, str]:
     """SHA-256 of every file under ``folder`` but its record, by path relative to it (``/``-separated)."""
     files = sorted(p for p in folder.rglob("*") if p.is_file() and p.name != RECORD_FILE)
-    return {p.relative_to(folder).as_posix(): _sha256(p) for p in files}
+    return {p.relative_to(folder).as_posix(): sha256_file(p) for p in files}
 
 
 def outputs_intact(folder: Path, record: dict[str, Any]) -> bool:
@@ -173,7 +165,7 @@ def outputs_intact(folder: Path, record: dict[str, Any]) -> bool:
     if not isinstance(listed, dict) or not listed:
         return False
     try:
-        return all(isinstance(d, str) and _sha256(folder / str(rel)) == d for rel, d in listed.items())
+        return all(isinstance(d, str) and sha256_file(folder / str(rel)) == d for rel, d in listed.items())
     except OSError:
         return False
 

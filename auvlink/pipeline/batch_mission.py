@@ -23,7 +23,6 @@ on a worker started with several threads); the log is streamed chunk by chunk by
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -38,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from auvlink.errors import AuvlinkError
+from auvlink.file_digest import sha256_file
 from auvlink.pipeline.batch_guard import (
     MissionTimeout,
     check_mcap_magic,
@@ -52,18 +52,8 @@ from auvlink.pipeline.batch_guard import (
 
 BATCH_FILE = "batch.json"
 MISSION_FORMAT = "auvlink-batch-mission/1"
-HASH_BLOCK = 1 << 20  # bytes read at a time for a checksum (memory stays at one block)
 
 _ONE_AT_A_TIME = threading.Lock()
-
-
-def sha256_file(path: str | os.PathLike[str]) -> str:
-    """Hex SHA-256 of a file, read in :data:`HASH_BLOCK` blocks (never the whole file in memory)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        while block := f.read(HASH_BLOCK):
-            h.update(block)
-    return h.hexdigest()
 
 
 @dataclass(frozen=True)
