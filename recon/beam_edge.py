@@ -96,6 +96,14 @@ def plane_terms(geometry: SonarGeometry, rot: Rotation, pos: F64, point: F64, no
     return height, a, np.broadcast_to(-n_s[:, 2:3], a.shape)
 
 
+def plane_elevation(a: F64, b: F64, k: F64) -> F64:
+    """The steeper elevation (rad, above the fan's axis) at which a ray meets the plane of :func:`plane_terms`'s
+    ``a``, ``b`` where ``a cos phi + b sin phi = k`` (``k``: the sonar's height over the plane / the range). Where no
+    ray meets the plane at that range (``k > hypot(a, b)``) ``k`` is clipped (the grazing ray): callers mask those."""
+    with np.errstate(all="ignore"):
+        return np.asarray(np.arctan2(b, a) - np.arccos(np.clip(k / np.hypot(a, b), -1.0, 1.0)), np.float64)
+
+
 def _levels(env: NDArray[np.uint8], no_seabed: NDArray[np.bool_]) -> tuple[F64, F64, NDArray[np.bool_]]:
     """Per frame and row the water level ``N`` (F, bins), per frame the seabed level ``P`` (F,), both of the
     envelopes (F, bins, C) in grey levels, and whether that step is a seabed onset (module docstring);
@@ -135,7 +143,7 @@ def frame_edge_profile(images: NDArray[np.uint8], geometry: SonarGeometry, pos: 
                        normal: F64, fractions: tuple[float, ...]) -> tuple[F64, F64, F64]:
     """:func:`frame_edges` at each of ``fractions`` of the water-to-seabed step (the first one defines the level):
     the elevations (F, K) at which the seabed onset reaches ``N + fraction (P - N)`` (a lower fraction is reached
-    at a steeper elevation: the beam pattern's fall beyond the edge, :mod:`recon.bright_returns`), the grey level
+    at a steeper elevation: the beam pattern's fall beyond the edge, :mod:`recon.pattern_fall`), the grey level
     of the first fraction at the onset (F,) and the step ``P - N`` there (F,); NaN where a frame shows no onset."""
     az, env = _envelope(images, geometry)
     r = geometry.ranges
@@ -152,9 +160,7 @@ def frame_edge_profile(images: NDArray[np.uint8], geometry: SonarGeometry, pos: 
         row = np.argmax(above, axis=1)  # (F, C): each central beam's onset row
         hit = np.take_along_axis(above, row[:, None, :], axis=1)[:, 0, :]
         g = height[:, None] / r[row]
-        with np.errstate(all="ignore"):
-            phi = np.arctan2(b, a) - np.arccos(np.clip(g / amp, -1.0, 1.0))  # (F, C): each beam's edge at its onset
-        phi = np.where(hit & (g <= amp), phi, np.nan)
+        phi = np.where(hit & (g <= amp), plane_elevation(a, b, g), np.nan)  # (F, C): each beam's edge at its onset
         enough = np.isfinite(phi).sum(axis=1) >= 0.5 * phi.shape[1]  # most central beams show the onset
         ok = step_ok & enough & np.isfinite(height) & (height > 0)
         with np.errstate(all="ignore"), warnings.catch_warnings():

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from recon.beam_edge import plane_terms
+from recon.beam_edge import plane_elevation, plane_terms
 from recon.seabed_texture import SeabedCells
 from recon.sonar_geometry import SonarGeometry
 from recon.target_envelope import CLUSTER_BLUR_M
@@ -66,13 +66,12 @@ class EchoMosaic:
         az = geometry.azimuths[: nb * BEAM_BLOCK].reshape(nb, BEAM_BLOCK).mean(axis=1)  # (B,)
         first = onset[:, : nb * BEAM_BLOCK].reshape(f, nb, BEAM_BLOCK).max(axis=2)  # (F, B): past every beam's onset
         height, a, b = plane_terms(geometry, rot, pos, point, normal, az)
-        amp = np.hypot(a, b)  # (F, B)
-        g = height[:, None, None] / (r[None, :, None] * amp[:, None, :])  # (F, R, B)
-        beyond = (r[None, :, None] >= first[:, None, :]) & (g <= 1.0) & np.isfinite(g)
+        g = height[:, None, None] / r[None, :, None]  # (F, R, 1)
+        beyond = (r[None, :, None] >= first[:, None, :]) & (g <= np.hypot(a, b)[:, None, :]) & np.isfinite(g)
         fi, ri, bi = np.nonzero(beyond)
         if fi.size == 0:
             return
-        phi = np.arctan2(b[fi, bi], a[fi, bi]) - np.arccos(np.clip(g[fi, ri, bi], -1.0, 1.0))
+        phi = plane_elevation(a[fi, bi], b[fi, bi], g[fi, ri, 0])
         dirs = geometry.directions_body(phi, az[bi])  # (n, 3) in B
         p_b = r[ri, None] * dirs + geometry.mounting.lever
         world = np.einsum("nij,nj->ni", rot.as_matrix().reshape(-1, 3, 3)[fi], p_b) + pos[fi]

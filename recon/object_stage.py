@@ -46,7 +46,6 @@ class ObjectStage:
         self.seabed_removed = 0
         #: an object's extra elevation (rad) below the fan's edge from its points (recon.pattern_fall); None: none
         self.below_edge: Callable[[F64], float] | None = None
-        self.lowered = 0  # objects re-placed below the edge
 
     def add(self, points: F64, times: F64, arcs: F64) -> None:
         """Points (N, 3), their frame times (N,) and range arcs (N, 10, or (N, 0) without the front-slope
@@ -112,7 +111,6 @@ class ObjectStage:
         extra = self.below_edge(o.points)
         if not extra > 0.0:
             return o.points, None
-        self.lowered += 1
         phi = arc_elevations(o.points, o.extra) + extra
         return points_at(o.extra, phi), phi
 

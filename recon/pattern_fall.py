@@ -73,11 +73,6 @@ class PatternFall:
         held = np.maximum.accumulate(np.where(steady, extra, 0.0))
         return held, float(np.median(np.fromiter(self._step, np.float64)))
 
-    @property
-    def step(self) -> float:
-        """The median water-to-seabed step (grey levels); NaN until :attr:`ready`."""
-        return self.profile()[1]
-
     def extra(self, excess: F64 | float) -> F64:
         """Extra elevation (rad, >= 0, beyond the edge) at which reflectors ``excess`` grey levels brighter than the
         seabed are first seen; 0 until :attr:`ready` (module docstring)."""

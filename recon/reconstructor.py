@@ -80,7 +80,6 @@ class Reconstructor:
         self.beam_edge = BeamEdge(0.5 * geometry.spread)
         self.pattern_fall = PatternFall(WINDOW_FRAMES, MIN_FRAMES)  # the pattern beyond the edge (recon.pattern_fall)
         self.mosaic = EchoMosaic()  # the seabed band's echo over the seabed's (recon.echo_mosaic)
-        self._planes: tuple[F64, F64] | None = None  # the seabed planes of the latest batch's frames
         self.poses = poses
         self.config = config or ReconConfig()
         self.dvl_max_pitch = dvl_max_pitch
@@ -127,12 +126,12 @@ class Reconstructor:
         pos, rot = self.poses.pose_at(ts)
         check_attitude(rot)
         alt = self.poses.altitude_at(ts)
-        g = self._effective_geometry(imgs, pos, rot, alt)
+        g, planes = self._effective_geometry(imgs, pos, rot, alt)
         # the grey level at which the seabed shows at the effective edge (recon.beam_edge): no return is fainter
         floor = self.beam_edge.level if cfg.calibrate else float("nan")
         onsets = self._onsets.run(self.frames, imgs, pos, rot, alt, floor)  # 1. onset
-        if self._planes is not None and cfg.below_edge:
-            self.mosaic.add(imgs, g, onsets.onset, pos, rot, *self._planes)
+        if planes is not None and cfg.below_edge:
+            self.mosaic.add(imgs, g, onsets.onset, pos, rot, *planes)
         hc = cfg.highlight
         limits = onset_rows(g, onsets.onset, hc.margin_m)
         if cfg.calibrate and not np.isfinite(floor):
@@ -171,19 +170,21 @@ class Reconstructor:
         thr = thresholds_over(background, med, mad)
         return sidelobe_thresholds(thr, imgs, n_rows, margin_levels(cfg.sidelobe_db, cfg.display_range_db))
 
-    def _effective_geometry(self, imgs: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64) -> SonarGeometry:
-        """The geometry with the fan's effective lower edge (:mod:`recon.beam_edge`) after this batch's frames:
-        the spread whose upper half is the estimated edge (the fan's axis, tilt and beams unchanged)."""
+    def _effective_geometry(self, imgs: NDArray[np.uint8], pos: F64, rot: Rotation, alt: F64
+                            ) -> tuple[SonarGeometry, tuple[F64, F64] | None]:
+        """The geometry with the fan's effective lower edge (:mod:`recon.beam_edge`) after this batch's frames
+        (the spread whose upper half is the estimated edge; the fan's axis, tilt and beams unchanged) and the
+        seabed plane each frame's edge was measured against (a point and the normal into the water, (F, 3) each;
+        None without calibration)."""
         nominal = self.nominal_geometry
         if not self.config.calibrate:
-            return nominal
+            return nominal, None
         point, normal = self._onsets.seabed_planes(pos, rot, alt, frames_before=self.frames)
         # the fitted seabed's slope, through the DVL's bottom point under the vehicle: the altitude is measured
         # there, while a tile's depth is only as good as the points around it (0.15 m too deep at the edge of a
         # survey over a 5 deg slope, a 1.4 deg wider edge)
         dvl = np.column_stack([pos[:, :2], pos[:, 2] + alt])
         point = np.where(np.isfinite(alt)[:, None], dvl, point)
-        self._planes = (point, normal)
         fractions = FALL_FRACTIONS if self.config.below_edge else FALL_FRACTIONS[:1]
         profile, levels, steps = frame_edge_profile(imgs, nominal, pos, rot, point, normal, fractions)
         half = self.beam_edge.update(profile[:, 0], nominal.tilt, levels)
@@ -193,7 +194,7 @@ class Reconstructor:
             self.geometry = replace(nominal, spread=2.0 * half)
             self._onsets.geometry = self.geometry
             self._objects.spread = self.geometry.spread  # the arcs' elevations span the fan the points are placed in
-        return self.geometry
+        return self.geometry, (point, normal)
 
     @property
     def raw_points(self) -> F64:

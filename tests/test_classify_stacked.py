@@ -8,32 +8,18 @@ import pytest
 import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from pointnet_helpers import trained_like
 
 from auvlink.pipeline.object_labels import TORCH_THREADS, ObjectLabeller
 from classify.ensemble import Ensemble, StackedPointNets
 from classify.infer import Classifier, turned_views
 from classify.numpy_infer import NumpyClassifier
-from classify.pointnet import LinearBN, PointNet, PointNetConfig
+from classify.pointnet import PointNet, PointNetConfig
 
 
 def _trained_like(cfg: PointNetConfig, seed: int) -> PointNet:
-    """A PointNet with random weights and random batch-norm statistics (as after training), fused."""
-    torch.manual_seed(seed)
-    net = PointNet(cfg)
-    gen = torch.Generator().manual_seed(seed + 1)
-    with torch.no_grad():
-        for m in net.modules():
-            if isinstance(m, LinearBN) and isinstance(m.bn, torch.nn.BatchNorm1d):
-                c = m.bn.num_features
-                assert m.bn.running_mean is not None and m.bn.running_var is not None
-                m.bn.running_mean.copy_(torch.randn(c, generator=gen) * 0.1)
-                m.bn.running_var.copy_(torch.rand(c, generator=gen) + 0.5)
-                m.bn.weight.copy_(torch.rand(c, generator=gen) + 0.5)
-                m.bn.bias.copy_(torch.randn(c, generator=gen) * 0.1)
-        for tnet in (net.input_tnet, net.feature_tnet):
-            if tnet is not None:  # a transform away from the identity, so the T-Nets matter
-                tnet.out.weight.normal_(0.0, 0.01, generator=gen)
-    return net.fused()
+    """A trained-like PointNet (tests/pointnet_helpers.py) with its batch norms folded."""
+    return trained_like(cfg, seed).fused()
 
 
 @pytest.mark.parametrize("members", [1, 3])

@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 import torch
+from pointnet_helpers import trained_like
 
 from auvlink.cli import main
 from auvlink.file_digest import sha256_file
@@ -22,7 +23,7 @@ from classify.errors import CheckpointError, InferenceExportWarning
 from classify.infer import Classifier
 from classify.inference_export import export_path, matching_export, read_export
 from classify.numpy_infer import NumpyClassifier, load_classifier
-from classify.pointnet import LinearBN, PointNet, PointNetConfig
+from classify.pointnet import PointNetConfig
 
 SEABED = 20.0  # m, NED depth of the flat seabed under the synthetic objects
 ATOL = 1e-5  # probabilities: float32 sums in another order (OpenBLAS vs MKL), about 2e-7 seen
@@ -101,26 +102,9 @@ def test_shipped_model_settings_are_the_checkpoints(shipped: tuple[NumpyClassifi
     assert np_clf.needs_seabed and np_clf.backend == "numpy" and torch_clf.backend == "torch"
 
 
-def _random_net(cfg: PointNetConfig, seed: int) -> PointNet:
-    """A PointNet with random weights and batch-norm statistics (as after training), not fused."""
-    torch.manual_seed(seed)
-    net = PointNet(cfg)
-    gen = torch.Generator().manual_seed(seed + 1)
-    with torch.no_grad():
-        for m in net.modules():
-            if isinstance(m, LinearBN) and isinstance(m.bn, torch.nn.BatchNorm1d):
-                assert m.bn.running_mean is not None and m.bn.running_var is not None
-                m.bn.running_mean.copy_(torch.randn(m.bn.num_features, generator=gen) * 0.1)
-                m.bn.running_var.copy_(torch.rand(m.bn.num_features, generator=gen) + 0.5)
-        for tnet in (net.input_tnet, net.feature_tnet):
-            if tnet is not None:  # a transform away from the identity, so the T-Nets matter
-                tnet.out.weight.normal_(0.0, 0.01, generator=gen)
-    return net.eval()
-
-
 def _save(path: Path, members: int, transforms: bool, seed: int = 0, z_ref: str = "seabed") -> Path:
     cfg = PointNetConfig(num_classes=4, width=0.125, input_transform=transforms, feature_transform=transforms)
-    nets = [_random_net(cfg, seed + 10 * k) for k in range(members)]
+    nets = [trained_like(cfg, seed + 10 * k) for k in range(members)]
     return save_checkpoint(path, nets[0], ("box", "pipe", "sphere", "clutter"), 64, {"scale_m": 1.5, "z_ref": z_ref},
                            calibration={"clutter_threshold": 0.7}, members=nets[1:])
 
