@@ -18,6 +18,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from recon.arc_consensus import consensus_points
 from recon.cluster import DetectedObject, cluster, make_object
 from recon.cluster_stream import StreamingClusterer
 from recon.far_side import far_side_centre
@@ -37,7 +38,10 @@ class ObjectStage:
 
     def __init__(self, config: ReconConfig, memory: SeabedMemory, spread: float) -> None:
         self.config, self.memory, self.spread = config, memory, spread
+        self.nominal_spread = spread  # rad: the fan's data-sheet spread (``spread`` follows the effective edge)
         self._pending: list[tuple[F64, F64, F64]] = []
+        #: points removed as seabed, tested again ``config.seabed.revisit_s`` later (:meth:`take_pending`)
+        self._removed: tuple[F64, F64, F64] | None = None
         self._raw: list[F64] = []
         self._stream: StreamingClusterer | None = None
         self.seabed: TexturedSeabed | SeabedModel | None = None  # the model of the latest poll
@@ -59,8 +63,10 @@ class ObjectStage:
         """Every highlight-extension point so far (before seabed removal), world NED."""
         return np.concatenate(self._raw) if self._raw else np.zeros((0, 3))
 
-    def take_pending(self) -> tuple[F64, F64, F64]:
-        """The pending points less the seabed (the pending buffer emptied)."""
+    def take_pending(self, final: bool = False) -> tuple[F64, F64, F64]:
+        """The pending points less the seabed (the pending buffer emptied), with the removed points a later model
+        puts above the seabed (:meth:`_revisit`: those removed ``config.seabed.revisit_s`` before the newest
+        pending point, every one when ``final``)."""
         if not self._pending:
             p, t = np.zeros((0, 3)), np.zeros(0)
             e = np.zeros((0, ARC_COLUMNS if self.config.front_slope else 0))
@@ -69,14 +75,48 @@ class ObjectStage:
             t = np.concatenate([b for _, b, _ in self._pending])
             e = np.concatenate([c for _, _, c in self._pending])
         self._pending = []
-        if not self.memory or p.shape[0] == 0:
+        if not self.memory:
             return p, t, e
+        if p.shape[0]:
+            model = self.memory.fit(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
+            if model is None:
+                return p, t, e
+            self.seabed = model
+            keep = object_points(p, model, self.config.seabed)
+            self.seabed_removed += int((~keep).sum())
+            due = self._due(None if final else float(t.max()))
+            self._removed = _joined(self._removed, (p[~keep], t[~keep], e[~keep]))
+            p, t, e = p[keep], t[keep], e[keep]
+        else:
+            due = self._due(None) if final else None
+        if due is not None:
+            p, t, e = _joined((p, t, e), self._revisit(*due, latest=p.shape[0] == 0))
+        return p, t, e
+
+    def _due(self, t_newest: float | None) -> tuple[F64, F64, F64] | None:
+        """The removed points due for a second test (removed ``config.seabed.revisit_s`` or more before ``t_newest``;
+        None: all), taken out of the store; None when there are none."""
+        if self._removed is None:
+            return None
+        rp, rt, re = self._removed
+        due = np.ones(rt.shape, bool) if t_newest is None else rt <= t_newest - self.config.seabed.revisit_s
+        if not due.any():
+            return None
+        self._removed = rp[~due], rt[~due], re[~due]
+        return rp[due], rt[due], re[due]
+
+    def _revisit(self, p: F64, t: F64, e: F64, latest: bool) -> tuple[F64, F64, F64]:
+        """Of points removed as seabed, those a seabed model fitted now over their box puts above it: the model under
+        a point matures as the survey adds samples around it (the next lines, a crossing), and a low object its
+        first fit followed (few cells around it at a line's start) stands out of the later one. ``latest``: that
+        model is the poll's (no new points were fitted), the one the objects are given their seabed from."""
         model = self.memory.fit(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
         if model is None:
-            return p, t, e
-        self.seabed = model
+            return p[:0], t[:0], e[:0]
+        if latest:
+            self.seabed = model
         keep = object_points(p, model, self.config.seabed)
-        self.seabed_removed += int((~keep).sum())
+        self.seabed_removed -= int(keep.sum())
         return p[keep], t[keep], e[keep]
 
     def _on_seabed(self, objects: list[DetectedObject]) -> list[DetectedObject]:
@@ -103,10 +143,15 @@ class ObjectStage:
         return out
 
     def _below_edge(self, o: DetectedObject) -> tuple[F64, F64 | None]:
-        """The object's points re-placed on their arcs below the elevation each was placed at, by the extra
-        elevation its brightness was seen at (:attr:`below_edge`), and those elevations (rad); the points
-        unchanged and None when that is 0 or unknown."""
-        if self.below_edge is None or not is_arc_record(o.extra, o.points.shape[0]):
+        """The object's points re-placed on their arcs below the elevation each was placed at, and those elevations
+        (rad): where the arcs of their frames meet (``config.arc_consensus``, :mod:`recon.arc_consensus`), else by
+        the extra elevation the object's brightness was seen at (:attr:`below_edge`); the points unchanged and None
+        when neither applies or that extra is 0 or unknown."""
+        if not is_arc_record(o.extra, o.points.shape[0]):
+            return o.points, None
+        if self.config.arc_consensus:
+            return consensus_points(o.points, o.extra, o.times, self.nominal_spread, o.seabed_depth)
+        if self.below_edge is None:
             return o.points, None
         extra = self.below_edge(o.points)
         if not extra > 0.0:
@@ -126,7 +171,7 @@ class ObjectStage:
 
     def finish(self) -> list[DetectedObject]:
         """End of the mission: the remaining objects (all of them when :meth:`poll` was never used)."""
-        p, t, e = self.take_pending()
+        p, t, e = self.take_pending(final=True)
         if self._stream is None:
             out = cluster(p, t, self.config.cluster, e)
         else:
@@ -135,3 +180,10 @@ class ObjectStage:
         out = self._finalize(self._on_seabed(out))
         self.objects.extend(out)
         return out
+
+
+def _joined(a: tuple[F64, F64, F64] | None, b: tuple[F64, F64, F64]) -> tuple[F64, F64, F64]:
+    """Points, times and arcs of ``a`` (None: none) followed by those of ``b``."""
+    if a is None:
+        return b
+    return np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]]), np.concatenate([a[2], b[2]])

@@ -38,6 +38,10 @@ class ReconConfig:
     # centres the objects' heights on soft beams (0.3 m too high before), but the shipped classifier was trained on
     # clouds placed on the edge and names the corrected ones worse; on once the synthesis emulates it
     below_edge: bool = False
+    # each final object's returns re-placed below the elevation they were placed at, where the range arcs of their
+    # successive frames meet (recon.arc_consensus: a fixed reflector seen through the beam's energy beyond the edge);
+    # off by default until the classifier's synthesis places points alike (a classifier trained on edge-placed clouds)
+    arc_consensus: bool = False
     # two-way sidelobe level (dB re the main lobe) below which a return in the row of a stronger one is its sidelobe
     # (recon.sidelobe): the highest of the supported sonars' (DIDSON's lens, issue 36: -25 dB; ARIS -30 dB)
     sidelobe_db: float = -25.0

@@ -46,6 +46,9 @@ class SeabedConfig:
     regional_span: float = 2.0  # m: the regional plane's slope shrinks to 0 for points spanning much less
     min_height: float = 0.05  # m above the seabed to count as an object point (first detections: ~margin sin(t + s/2))
     max_height: float = 10.0  # m: higher returns (fish, surface) are dropped
+    #: s a point removed as seabed is tested again by later polls: a survey line of the envelope and the turn to the
+    #: next (50 m at 0.5-1.5 m/s: 35-100 s), so the adjacent line's seabed samples reach the model under it
+    revisit_s: float = 120.0
 
 
 def _key(ij: NDArray[np.int64]) -> NDArray[np.int64]:

@@ -41,6 +41,7 @@ from classify.training.clutter_synth import recon_clusters
 from classify.training.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry, relative_to_steel
 from classify.training.synthesis_settings import SynthesisSettings
 from classify.training.views import training_cloud
+from recon.arc_consensus import consensus_points
 from recon.front_slope import replace_on_arcs
 from recon.reconstructor import ReconConfig
 
@@ -108,9 +109,11 @@ def object_patch_view(class_name: str, vertices: F64, triangles: npt.NDArray[np.
     if np.linalg.norm(o.centroid[:2] - c) > settings.object_patch_offset_m:
         return None
     spread = math.radians(settings.spread_deg)
-    fixed = replace_on_arcs(o.points, o.extra, spread, cfg.front_slope_length, cfg.front_slope_width)
+    pts, steep = consensus_points(o.points, o.extra, o.times, spread, depth) if settings.arc_consensus \
+        else (o.points, None)
+    fixed = replace_on_arcs(pts, o.extra, spread, cfg.front_slope_length, cfg.front_slope_width, steepest=steep)
     blend = float(rng.uniform(*settings.correction_blend))
-    return np.asarray(o.points + blend * (fixed - o.points)), depth, heading, tilt
+    return np.asarray(pts + blend * (fixed - pts)), depth, heading, tilt
 
 
 def synthesize_object_patches(class_name: str, vertices: F64, triangles: npt.NDArray[np.integer],

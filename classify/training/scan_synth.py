@@ -50,6 +50,7 @@ import numpy.typing as npt
 from auvlink.sonar import DIDSON
 from classify.training.scan_acoustics import draw_acoustics, ray_elevations, ray_weights, tvg_gain
 from classify.training.synthesis_settings import SynthesisSettings
+from recon.arc_consensus import consensus_points
 from recon.front_slope import replace_on_arcs
 from recon.range_arcs import arc_record
 
@@ -247,7 +248,7 @@ def scan_points(scene: Any, vertices: F64, heading_rad: float, tilt_rad: float, 
     if settings.correction == "none" or not keep.any():
         return np.asarray(pts[keep] - lift)
     return _corrected(pts[keep], origins[pi[keep]], bi[keep], r[keep], heading_rad, tilt_rad, spread,
-                      settings, rng) - lift
+                      settings, rng, (pi[keep].astype(np.float64), ac.seabed_bias_m)) - lift
 
 
 def _cast(scene: Any, origins: F64, d: F64) -> tuple[F64, F64]:
@@ -266,11 +267,18 @@ def _cast(scene: Any, origins: F64, d: F64) -> tuple[F64, F64]:
 
 
 def _corrected(pts: F64, origins: F64, beams: npt.NDArray[np.int64], r: F64, heading_rad: float, tilt_rad: float,
-               spread: float, settings: SynthesisSettings, rng: np.random.Generator) -> F64:
+               spread: float, settings: SynthesisSettings, rng: np.random.Generator, frames: tuple[F64, float]
+               ) -> F64:
     """Recon's front-slope correction (:func:`recon.front_slope.replace_on_arcs`, the nominal fan of ``spread``
-    rad, as recon's), a fraction drawn from ``settings.correction_blend`` of each move applied."""
+    rad, as recon's), a fraction drawn from ``settings.correction_blend`` of each move applied; with
+    ``settings.arc_consensus`` the points first re-placed where their frames' arcs meet (``frames``: each point's
+    position index along the pass and recon's seabed depth, m; :func:`recon.arc_consensus.consensus_points`)."""
     u, w_vec = arc_vectors(heading_rad, tilt_rad)
     arcs = arc_record(origins, u[beams], np.broadcast_to(w_vec, (len(pts), 3)), r)
-    fixed = replace_on_arcs(pts, arcs, spread, settings.correction_length_m, settings.correction_width_m)
+    steep = None
+    if settings.arc_consensus:
+        pts, steep = consensus_points(pts, arcs, frames[0], spread, frames[1])
+    fixed = replace_on_arcs(pts, arcs, spread, settings.correction_length_m, settings.correction_width_m,
+                            steepest=steep)
     blend = float(rng.uniform(*settings.correction_blend))  # recon's correction is partial on real frames
     return np.asarray(pts + blend * (fixed - pts), dtype=np.float64)

@@ -59,6 +59,9 @@ class SynthesisSettings:
     correction_length_m: float = 1.0
     correction_width_m: float = 0.25
     correction_blend: tuple[float, float] = (1.0, 1.0)  # fraction of the correction applied (drawn per view)
+    # with the correction: returns first re-placed where their frames' arcs meet (recon.arc_consensus), as recon
+    # does with ReconConfig.arc_consensus
+    arc_consensus: bool = False
     # > 0: clouds are centred and divided by this many metres (the size stays a feature), not unit-sphere
     scale_m: float = 0.0
     # "mean": centred on the mean in 3D; "seabed" (needs scale_m > 0): centred horizontally only, z kept as
