@@ -29,9 +29,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from recon.errors import ReconError
+from recon.seabed_irls import TilePairs, irls_planes
 
 F64 = NDArray[np.float64]
-_OFFS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
 
 
 @dataclass(frozen=True)
@@ -83,25 +83,16 @@ class SeabedModel:
         regional = regional_plane(p, cfg)
         # each tile fits its departure from the regional plane; the ridge pulls its slope to the regional one
         base = _plane_depth(regional, p[:, :2]) if regional is not None else np.zeros(p.shape[0])
-        cell = np.floor(p[:, :2] / t).astype(np.int64)
         # every (point, tile) pair: the point's tile and the neighbours whose expanded box holds it
-        pt_idx = np.repeat(np.arange(p.shape[0]), 9)
-        tiles = (cell[:, None, :] + _OFFS[None]).reshape(-1, 2)
-        centre = (tiles + 0.5) * t
-        d = p[pt_idx, :2] - centre
-        inside = np.all(np.abs(d) <= t * (0.5 + cfg.overlap), axis=1)
-        pt_idx, tiles, d = pt_idx[inside], tiles[inside], d[inside] / t
-        keys, tix = np.unique(_key(tiles), return_inverse=True)
-        n_t = keys.size
-        counts = np.bincount(tix, minlength=n_t)
-        z = p[pt_idx, 2] - base[pt_idx]
-        a = np.stack([np.ones_like(d[:, 0]), d[:, 0], d[:, 1]], axis=1)
-        coef, w = _irls_planes(a, z, tix, n_t, cfg.ridge, cfg)
+        pairs = TilePairs(p, t, cfg.overlap)
+        tix, counts, n_t = pairs.tix, pairs.counts, pairs.counts.size
+        z = p[pairs.point, 2] - base[pairs.point]
+        coef, w = irls_planes(pairs.dx, pairs.dy, z, tix, counts, cfg.ridge, cfg)
         good = np.bincount(tix, weights=w, minlength=n_t) >= cfg.min_points
         good &= counts >= cfg.min_points
-        ij = np.stack([keys >> 32, (keys & 0xFFFFFFFF).astype(np.int32).astype(np.int64)], axis=1)
+        ij = pairs.ij
         if regional is not None:  # back to absolute planes
-            coef[:, 0] += _plane_depth(regional, (ij + 0.5) * t)
+            coef[:, 0] += _plane_depth(regional, np.asarray((ij + 0.5) * t, np.float64))
             coef[:, 1] += regional[1] * t
             coef[:, 2] += regional[2] * t
         span = float(np.max(np.ptp(p[:, :2], axis=0))) if p.shape[0] else 0.0
@@ -176,43 +167,12 @@ def regional_plane(p: F64, cfg: SeabedConfig) -> F64 | None:
     if p.shape[0] < cfg.min_points:
         return None
     c = p[:, :2].mean(axis=0)
-    a = np.column_stack([np.ones(p.shape[0]), p[:, :2] - c])  # metres from the centre
+    d = p[:, :2] - c  # metres from the centre
     # the slope is trusted only where the points span more than ~regional_span m: on a rough seabed the
     # slope over a few metres is the texture's (10 deg and more), not the seabed's
-    coef, _ = _irls_planes(a, p[:, 2], np.zeros(p.shape[0], np.int64), 1, cfg.regional_span**2, cfg)
+    coef, _ = irls_planes(d[:, 0], d[:, 1], p[:, 2], np.zeros(p.shape[0], np.int64), np.array([p.shape[0]]),
+                          cfg.regional_span**2, cfg)
     return np.array([coef[0, 0], coef[0, 1], coef[0, 2], c[0], c[1]])
-
-
-def _irls_planes(a: F64, z: F64, tix: NDArray[np.int64], n_t: int, ridge: float, cfg: SeabedConfig
-                 ) -> tuple[F64, F64]:
-    """Planes ``z = a @ coef[g]`` (``a``: (N, 3) rows of 1 and the two horizontal offsets) of ``n_t`` groups
-    (point ``k`` in group ``tix[k]``) by iteratively reweighted least squares: a plain fit, then the deeper
-    half of the points (objects only stand above the seabed), then the points within ``clip_sigma`` sigmas;
-    ``ridge`` x the group's weight on the two slope terms. Returns the (n_t, 3) coefficients and the last
-    weights (N,)."""
-    w = np.ones(z.size)
-    coef = np.zeros((n_t, 3))
-    for it in range(max(2, cfg.iterations)):
-        ata = np.zeros((n_t, 3, 3))
-        atz = np.zeros((n_t, 3))
-        for r in range(3):
-            atz[:, r] = np.bincount(tix, weights=w * a[:, r] * z, minlength=n_t)
-            for c in range(r, 3):
-                s_rc = np.bincount(tix, weights=w * a[:, r] * a[:, c], minlength=n_t)
-                ata[:, r, c] = ata[:, c, r] = s_rc
-        wsum = np.maximum(ata[:, 0, 0], 1e-12)
-        ata[:, 1, 1] += ridge * wsum
-        ata[:, 2, 2] += ridge * wsum
-        ata[:, 0, 0] += 1e-12
-        coef = np.asarray(np.linalg.solve(ata, atz[..., None])[..., 0], dtype=np.float64)
-        res = z - np.einsum("ni,ni->n", a, coef[tix])
-        if it == 0:  # objects only stand above the seabed: restart from the deeper half
-            w = (res >= 0).astype(np.float64)
-            continue
-        wss = np.bincount(tix, weights=w * res**2, minlength=n_t)
-        sigma = np.maximum(np.sqrt(wss / wsum), cfg.sigma_floor)
-        w = (np.abs(res) <= cfg.clip_sigma * sigma[tix]).astype(np.float64)
-    return coef, w
 
 
 def object_mask(points: ArrayLike, model: SeabedModel, config: SeabedConfig | None = None
