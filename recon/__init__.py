@@ -19,7 +19,8 @@ Recon against the simulator's ground truth is evaluation, in the application lay
   :mod:`recon.seabed_band`: the seabed return of each column); stages 2-3 :mod:`recon.highlight` (returns, points;
   :mod:`recon.water_threshold`: the background before the onset; :mod:`recon.sidelobe`: a strong return's sidelobe
   arcs); :mod:`recon.exact_stats` (numpy's medians and percentiles, bit for bit, faster, for stages 1-3);
-  stage 4 :mod:`recon.seabed_evidence` into :mod:`recon.seabed_memory` (with :mod:`recon.seabed`: tiled planes,
+  stage 4 :mod:`recon.seabed_evidence` into :mod:`recon.seabed_memory` (with :mod:`recon.seabed`: tiled planes, their
+  arithmetic in :mod:`recon.seabed_irls`,
   :mod:`recon.seabed_texture`: the texture grid); stage 5 :mod:`recon.object_stage` (with :mod:`recon.poll_seabed`:
   seabed removal and clutter, :mod:`recon.cluster` (with :mod:`recon.cluster_grid`), :mod:`recon.cluster_stream`,
   :mod:`recon.cluster_index`,

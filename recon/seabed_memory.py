@@ -59,6 +59,7 @@ class SeabedMemory:
         self.cells = SeabedCells(texture.cell)  # filled only with the texture grid on
         self._planes: list[F64] = []
         self.n_planes = 0  # rows in the plane samples (summing them per frame grew with the mission)
+        self._cols: tuple[F64, F64, F64] | None = None  # (samples, their north, their east) for the box test
 
     def __bool__(self) -> bool:
         return self.n_planes > 0
@@ -94,11 +95,20 @@ class SeabedMemory:
             self._planes = [np.concatenate(self._planes)]
         return self._planes[0] if self._planes else np.zeros((0, 3))
 
+    def _columns(self, sb: F64) -> tuple[F64, F64]:
+        """North and east of the plane samples ``sb`` as contiguous columns (kept while ``sb`` is the same array:
+        the box test of :meth:`within` reads them instead of strided rows)."""
+        if self._cols is None or self._cols[0] is not sb:
+            self._cols = (sb, np.ascontiguousarray(sb[:, 0]), np.ascontiguousarray(sb[:, 1]))
+        return self._cols[1], self._cols[2]
+
     def within(self, lo: ArrayLike, hi: ArrayLike, points: F64 | None = None) -> F64 | None:
         """Plane samples (of ``points``, default all) with ``lo <= (N, E) <= hi``; None when fewer than a fit
         needs (``seabed.min_points``)."""
         sb = self.points if points is None else points
-        near = sb[np.all((sb[:, :2] >= np.asarray(lo)) & (sb[:, :2] <= np.asarray(hi)), axis=1)]
+        n, e = self._columns(sb)
+        (n0, e0), (n1, e1) = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+        near = sb[(n >= n0) & (n <= n1) & (e >= e0) & (e <= e1)]
         return near if near.shape[0] >= self.seabed_config.min_points else None
 
     def depth_at(self, xy: ArrayLike, radius: float = 8.0) -> F64:
