@@ -26,7 +26,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import brentq
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -50,16 +49,16 @@ def _exceeded(p: float) -> float:
     return math.log(-math.log(p))
 
 
-def _log_speckle_mad() -> float:
-    """The MAD of ``ln E``, ``E`` exponential (log-compressed speckle in nepers): 0.767."""
-    med = _exceeded(0.5)
-    return float(brentq(lambda d: math.exp(-math.exp(med - d)) - math.exp(-math.exp(med + d)) - 0.5, 1e-9, 10.0))
+#: nepers: the MAD of ``ln E``, ``E`` exponential (log-compressed speckle), the root ``d`` of
+#: ``exp(-exp(m - d)) - exp(-exp(m + d)) = 1/2`` with ``m = ln ln 2`` as scipy's ``brentq`` finds it on [1e-9, 10]
+#: (tests/test_water_threshold_constants.py solves it again; a literal keeps scipy.optimize out of start-up)
+LOG_SPECKLE_MAD = 0.7670492513257081
 
 
 #: MADs above the median at which log-compressed speckle is exceeded with probability PFA: ``ln(-ln PFA) -
 #: ln(ln 2)`` nepers over the MAD's 0.767 nepers, 3.37 for 1e-4 (a Gaussian's 4 robust sigmas are 5.93 MADs: on a
 #: 60 dB display 36 grey levels above the speckle's 1e-4 level)
-SPECKLE_MADS = (_exceeded(PFA) - _exceeded(0.5)) / _log_speckle_mad()
+SPECKLE_MADS = (_exceeded(PFA) - _exceeded(0.5)) / LOG_SPECKLE_MAD
 
 
 def speckle_upper(med: F64, mad: F64) -> F64:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from auvlink.atomic import atomic_dir
+from auvlink.clock import process_age_s
 from auvlink.config import load_config
 from auvlink.errors import AuvlinkError
 from auvlink.jsonutil import dumps
@@ -49,14 +50,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def process(log: Path, out: Path, *, speed: float | None, model: Path | None, classify: bool,
             report: bool, progress: bool, config: Path | None = None, ply_frame: str = "ned") -> dict[str, object]:
-    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module)
-    from auvlink.pipeline.outputs import write_outputs
+    # lazy: the pipeline loads SciPy and matplotlib (the parser imports every subcommand module); the outputs and
+    # the report (protobuf, the Foxglove schemas, the figures) only after the run, off the path to the first frame
     from auvlink.pipeline.process import run_log
-    from auvlink.pipeline.report import write_report
 
     check_inputs(log, speed)
     vehicle = load_config(config) if config is not None else None
+    age = process_age_s()  # s since this process started (interpreter, imports) when the run begins
     result = run_log(log, speed=speed, model=model, classify=classify, progress=progress, config=vehicle)
+    if age is not None:  # the start-up to the first frame processed, as the user waits for it
+        result.timings["first_frame_s"] = age + result.timings["start_up_s"]
+    from auvlink.pipeline.outputs import write_outputs
+    from auvlink.pipeline.report import write_report
+
     with atomic_dir(out) as tmp:
         summary = write_outputs(result, tmp, ply_frame=ply_frame)
         if report:

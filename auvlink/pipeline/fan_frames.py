@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
+from auvlink.pipeline.fan_palette import palette
 from auvlink.pipeline.results import FanFrame
 from logs_format.fan import FanGrid, fan_grid, render_fan
 from recon.sonar_geometry import SonarGeometry
@@ -28,11 +29,8 @@ _CROSS = ((0, 0), (-1, 0), (1, 0), (0, -1), (0, 1))
 
 
 def _lut() -> NDArray[np.uint8]:
-    """The palette: inferno for 0..254, :data:`MARK` at 255 (256 x 3 uint8)."""
-    from matplotlib import colormaps  # lazy: matplotlib loads when a recorder is made, not with the pipeline
-
-    lut = (np.asarray(colormaps["inferno"](np.linspace(0.0, 1.0, 255)))[:, :3] * 255).round().astype(np.uint8)
-    return np.vstack([lut, np.array([MARK], np.uint8)])
+    """The palette: inferno for 0..254, :data:`MARK` at 255 (256 x 3 uint8; :mod:`auvlink.pipeline.fan_palette`)."""
+    return palette(MARK)
 
 
 def fan_px_per_m(geometry: SonarGeometry, height_px: int) -> float:

@@ -31,11 +31,17 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-import can
-
 from auvlink.errors import EncodeError, TransportInitError, TransportOperationError
 from auvlink.framing.can_frames import FRAME_SIZE, frame_to_message, message_to_frame
 from auvlink.transports.base import Transport, url_query
+
+
+def _can() -> Any:
+    """The python-can module, imported when a bus is used (lazy: python-can and its asyncio load with the first
+    bus, not with every configuration that parses a ``can://`` URL)."""
+    import can  # lazy: python-can is heavy (asyncio, its io plugins) and only a CAN bus needs it
+
+    return can
 
 #: messages drained per read after the first one arrived (bounds one read's latency)
 MAX_BATCH = 512
@@ -104,6 +110,7 @@ class CanTransport(Transport):
         return self._bus
 
     def _open(self) -> None:
+        can = _can()
         try:
             self._bus = can.Bus(interface=self.interface, channel=self.channel, **self.options)
         except (can.CanError, OSError, ValueError, ImportError, NotImplementedError) as exc:
@@ -118,6 +125,7 @@ class CanTransport(Transport):
             bus.shutdown()
 
     def _read(self, timeout: float | None) -> bytes:
+        can = _can()
         bus = self.bus
         frames: list[bytes] = []
         try:
@@ -138,6 +146,7 @@ class CanTransport(Transport):
         return b"".join(frames)
 
     def _write(self, data: bytes) -> None:
+        can = _can()
         self._pending += data
         whole = len(self._pending) - len(self._pending) % FRAME_SIZE
         chunk = bytes(self._pending[:whole])
@@ -152,6 +161,7 @@ class CanTransport(Transport):
 
     def send(self, msg: Any, timeout: float | None = None) -> None:
         """Send one ``can.Message`` directly (the byte-stream :meth:`write` is the usual path)."""
+        can = _can()
         try:
             self.bus.send(msg, timeout)
         except can.CanError as exc:
