@@ -66,7 +66,8 @@ class TilePairs:
         oi, oj = k // 3, k % 3
         ti, tj = cell[point, 0] + offs[oi], cell[point, 1] + offs[oj]
         label, ij = _tile_labels(ti, tj)
-        order = np.argsort(label, kind="stable")
+        # stable: the points in their order within each tile (16-bit labels sort by radix, the order is the same)
+        order = np.argsort(label.astype(np.uint16) if ij.shape[0] <= 1 << 16 else label, kind="stable")
         self.point = point[order]
         self.dx = dm[0][self.point, oi[order]] / t
         self.dy = dm[1][self.point, oj[order]] / t
