@@ -33,11 +33,21 @@ def median_u8(x: NDArray[np.uint8]) -> F64:
 
 
 def median_mad_u8(x: NDArray[np.uint8]) -> tuple[F64, F64]:
-    """``np.median(x, axis=-1)`` and the median of ``|x - median|`` along the last axis (float64 each)."""
-    twice_med = _twice_median_u8(x).astype(np.int16)  # 0..510
-    dev = np.abs(2 * x.astype(np.int16) - twice_med[..., None])  # twice the deviations, 0..510
-    dev.sort(axis=-1, kind="stable")
-    return twice_med.astype(np.float64) / 2.0, _middle_sum(dev).astype(np.float64) / 4.0
+    """``np.median(x, axis=-1)`` and the median of ``|x - median|`` along the last axis (float64 each).
+
+    One sort: the ``j`` values nearest the median are ``j`` consecutive values of the sorted row, so the ``j``-th
+    smallest deviation is the least, over those windows, of the larger deviation at a window's two ends (in twice
+    the grey levels, integers: exact)."""
+    n = x.shape[-1]
+    s = np.sort(x, axis=-1, kind="stable")
+    twice_med = _middle_sum(s)  # 0..510
+    s2 = 2 * s.astype(np.int16)
+    m = twice_med.astype(np.int16)[..., None]
+    dev_sum = np.zeros(twice_med.shape, np.int32)  # the two middle deviations (twice the grey levels), summed
+    for j in ((n - 1) // 2 + 1, n // 2 + 1):
+        w = n - j + 1  # windows of j sorted values
+        dev_sum += np.maximum(m - s2[..., :w], s2[..., j - 1:] - m).min(axis=-1)
+    return twice_med.astype(np.float64) / 2.0, dev_sum.astype(np.float64) / 4.0
 
 
 def masked_percentile(x: F64, valid: NDArray[np.bool_], pct: float) -> F64:
