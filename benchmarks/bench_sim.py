@@ -42,21 +42,27 @@ from scipy.spatial.transform import Rotation
 from auvlink.sim.acoustics import PROFILES, AcousticsTable
 from auvlink.sim.scene import Scene, load_default_scene
 from auvlink.sim.sonar_geometry import RayFan
-from auvlink.sim.sonar_render import OBJECT, SonarRenderer
+from auvlink.sim.sonar_render import MISS, OBJECT, SonarRenderer
 from auvlink.sim.trajectory import LawnmowerTrajectory
 
 
 def _frames(scene: Scene, n: int, stride: int = 1) -> dict[str, tuple[np.ndarray, Rotation]]:
-    """Poses of up to ``n`` survey frames with an object in view, and ``n`` without (every
-    ``stride``-th frame of the survey probed)."""
+    """Poses of up to ``n`` survey frames with an object in view (a return inside the range window), and ``n``
+    that see only the seabed in the window (every ``stride``-th frame of the survey probed)."""
     tr = LawnmowerTrajectory.from_scene(scene)
     pose = tr.true_pose(np.arange(0.0, tr.duration, stride / scene.sonar.fps))
     probe = SonarRenderer(scene, cull="none", speckle=False)
     mats = pose.rotation().as_matrix()
-    seen = np.array([(probe.trace_matrix(p, m).kind == OBJECT).any()
-                     for p, m in zip(pose.position, mats, strict=True)])
+    end = scene.sonar.window_start + scene.sonar.window_length
+
+    def in_window(p: np.ndarray, m: np.ndarray) -> tuple[bool, bool]:  # an object, anything, in the window
+        h = probe.trace_matrix(p, m)
+        lit = (h.kind != MISS) & (h.range < end)
+        return bool((lit & (h.kind == OBJECT)).any()), bool(lit.any())
+
+    seen, lit = np.array([in_window(p, m) for p, m in zip(pose.position, mats, strict=True)]).T
     out = {}
-    for name, mask in (("objects in view", seen), ("seabed only", ~seen)):
+    for name, mask in (("objects in view", seen), ("seabed only", lit & ~seen)):
         idx = np.flatnonzero(mask)[:n]
         out[name] = (pose.position[idx], Rotation.from_matrix(mats[idx]))
     return out

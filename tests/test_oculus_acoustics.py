@@ -116,7 +116,7 @@ def _centre_column(scene: Scene) -> np.ndarray:
         return rd.intensity(hits)[:, beam]
     cos2 = np.where(np.isfinite(hits.range), hits.intensity * hits.range**2 / rd.seabed_gain, 0.0)
     seabed = np.full(hits.range.size, -1, np.int32)
-    return rd.imager.expected(hits.range, cos2, np.full(hits.range.size, rd.imager.mu), seabed)[beam]
+    return rd.imager.expected(hits.range, cos2, np.full(hits.range.size, rd.imager.mu), seabed)[:, beam]
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -147,8 +147,8 @@ def test_a_point_echo_takes_the_data_sheet_beam_width_and_sidelobe_arcs(model: S
     r = np.full(g.n_rays, np.inf)
     r[(g.k // 2) * g.n_beams + centre] = g.range_of_bin[2000]
     img = im.expected(r, np.full(g.n_rays, 1.0), np.full(g.n_rays, 1e-3), np.full(g.n_rays, -1, np.int32))
-    assert int(np.argmax(img[centre])) == 2000  # the leading edge at the true range
-    level = 10.0 * np.log10(np.maximum(img[:, 2000], 1e-30) / img[centre, 2000])
+    assert int(np.argmax(img[:, centre])) == 2000  # the leading edge at the true range
+    level = 10.0 * np.log10(np.maximum(img[2000], 1e-30) / img[2000, centre])
     bearings = np.asarray(describe(model).bearings_deg)
     near = slice(centre - 12, centre + 13)
     lit = bearings[near][level[near] >= -3.0]

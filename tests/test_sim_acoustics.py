@@ -14,15 +14,9 @@ from hypothesis import strategies as st
 from scipy import ndimage, stats
 
 from auvlink.errors import ConfigError
-from auvlink.sim.acoustic_image import (
-    AcousticImager,
-    beam_mixing,
-    speckle_table,
-    spread_across_beams,
-    spread_in_range,
-    vertical_pattern,
-)
+from auvlink.sim.acoustic_image import AcousticImager, speckle_table, spread_in_range, vertical_pattern
 from auvlink.sim.acoustics import AcousticsTable, resolve
+from auvlink.sim.azimuth_response import beam_mixing, spread_across_beams
 from auvlink.sim.scene import Scene, default_scene_text, load_default_scene, loads_scene
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng
 
@@ -124,7 +118,7 @@ def _seabed_column(scene: Scene, k: int | None = None) -> np.ndarray:
     diffuse = np.full(hits.range.size, rd.imager.mu)
     cos2 = np.where(np.isfinite(hits.range), hits.intensity * hits.range**2 / rd.seabed_gain, 0.0)
     surface = np.full(hits.range.size, -1, np.int32)
-    return rd.imager.expected(hits.range, cos2, diffuse, surface)[48]
+    return rd.imager.expected(hits.range, cos2, diffuse, surface)[:, 48]
 
 
 @pytest.mark.parametrize("k", [16, 64])
@@ -177,37 +171,37 @@ def test_the_elevation_integral_keeps_every_sample_energy(seed: int, objects: in
     e = np.where(np.isfinite(r), draw.random(g.n_rays), 0.0)
     surface = draw.integers(-1, objects, g.n_rays).astype(np.int32) if objects else np.full(g.n_rays, -1, np.int32)
     img = im.integrate(r, e, surface)
-    assert img.shape == (g.n_beams, g.n_bins) and np.all(img >= 0.0)
+    assert img.shape == (g.n_bins, g.n_beams) and np.all(img >= 0.0)
     assert img.sum() == pytest.approx(e.sum(), rel=1e-9)
-    assert np.allclose(img.sum(axis=1), e.reshape(g.k, g.n_beams).sum(axis=0), rtol=1e-9)  # per beam
+    assert np.allclose(img.sum(axis=0), e.reshape(g.k, g.n_beams).sum(axis=0), rtol=1e-9)  # per beam
 
 
 # --- azimuth pattern and pulse ----------------------------------------------------------------
 @pytest.mark.parametrize("sidelobe_db", [-20.0, -25.0, -35.0])
 def test_sidelobes_spread_a_point_across_the_fan(sidelobe_db: float) -> None:
-    e = np.zeros((96, 512))
-    e[40, 200] = 1.0
+    e = np.zeros((512, 96))
+    e[200, 40] = 1.0
     out = spread_across_beams(e, beam_mixing(96, 1.0, sidelobe_db))
-    level = 10.0 * np.log10(out[:, 200])
+    level = 10.0 * np.log10(out[200])
     assert np.abs(level[[38, 42]] - sidelobe_db).max() <= 2.0  # the first sidelobes, two beams off
     offset = np.abs(np.arange(96) - 40)
     far = offset >= 2
     expected = sidelobe_db - 20.0 * np.log10(offset[far] / 2.0)  # the 1/k^2 envelope, across the fan
     assert np.abs(level[far] - expected).max() <= 2.0 and level[95] > sidelobe_db - 40.0
-    assert out[40, 200] == 1.0 and out[41, 200] == pytest.approx(2.0 ** -4)  # -3 dB at half a beam
-    assert np.all(out[:, :200] == 0.0) and np.all(out[:, 201:] == 0.0)
+    assert out[200, 40] == 1.0 and out[200, 41] == pytest.approx(2.0 ** -4)  # -3 dB at half a beam
+    assert np.all(out[:200] == 0.0) and np.all(out[201:] == 0.0)
 
 
 @pytest.mark.parametrize("pulse_bins", [2.0, 3.5, 6.0])
 def test_pulse_smears_a_point_over_its_length(pulse_bins: float) -> None:
-    e = np.zeros((4, 512))
-    e[1, 100] = 1.0
+    e = np.zeros((512, 4))
+    e[100, 1] = 1.0
     out = spread_in_range(e, pulse_bins)
-    lit = np.flatnonzero(out[1] > 1e-12)
+    lit = np.flatnonzero(out[:, 1] > 1e-12)
     assert lit[0] == 100  # the leading edge stays at the true range
     assert lit[-1] - lit[0] + 1 == math.ceil(pulse_bins)
-    assert out[1].sum() == pytest.approx(1.0)
-    assert out[1, 100] == pytest.approx(1.0 / pulse_bins)
+    assert out[:, 1].sum() == pytest.approx(1.0)
+    assert out[100, 1] == pytest.approx(1.0 / pulse_bins)
 
 
 def test_a_point_echo_through_the_whole_model_takes_the_configured_pulse_and_sidelobes() -> None:
@@ -219,9 +213,9 @@ def test_a_point_echo_through_the_whole_model_takes_the_configured_pulse_and_sid
     ray = 32 * g.n_beams + 50  # the centre elevation, beam 50
     r[ray] = g.range_of_bin[200]
     img = im.expected(r, np.full(g.n_rays, 1.0), np.full(g.n_rays, 1e-3), np.full(g.n_rays, -1, np.int32))
-    lit = np.flatnonzero(img[50] > img[50].max() * 1e-6)
+    lit = np.flatnonzero(img[:, 50] > img[:, 50].max() * 1e-6)
     assert lit[0] == 200 and lit[-1] == 200 + math.ceil(0.06 / g.bin_width) - 1
-    assert 10.0 * np.log10(img[52, 200] / img[50, 200]) == pytest.approx(-22.0, abs=2.0)
+    assert 10.0 * np.log10(img[200, 52] / img[200, 50]) == pytest.approx(-22.0, abs=2.0)
 
 
 # --- speckle, TVG error ------------------------------------------------------------------------
@@ -268,7 +262,7 @@ def _imager(**overrides: float | str) -> AcousticImager:
 
 
 def test_gain_offset_shifts_the_mean_by_its_db() -> None:
-    energy = np.full((96, 512), 10.0 ** (-3.5))  # -35 dB: mid-display, never clipped
+    energy = np.full((512, 96), 10.0 ** (-3.5))  # -35 dB: mid-display, never clipped
     a = _imager().display(energy, np.random.default_rng(5)).astype(float)
     b = _imager(gain_db=6.0).display(energy, np.random.default_rng(5)).astype(float)
     shift_db = (b.mean() - a.mean()) * 60.0 / 256.0
@@ -277,7 +271,7 @@ def test_gain_offset_shifts_the_mean_by_its_db() -> None:
 
 def test_interference_in_its_fraction_of_frames() -> None:
     im = _imager(interference_fraction=0.2, interference_db=-10.0)
-    energy = np.full((96, 512), 1e-6)
+    energy = np.full((512, 96), 1e-6)
     n = 400
     hit = sum(int((np.median(im.display(energy, frame_rng(9, i)), axis=1) > 180).any()) for i in range(n))
     assert abs(hit / n - 0.2) < 3.0 * math.sqrt(0.2 * 0.8 / n)

@@ -21,7 +21,7 @@ Output: the uint8 image ``[range bin, beam]``. Steps, all vectorized over the fr
 3. Pulse: each bin's energy spreads over ``[r, r + pulse_m]`` (a rectangular pulse; the echo's
    leading edge stays at the true range). Azimuth pattern: each beam receives the others through
    its two-way response, a gaussian main lobe and sidelobes from ``sidelobe_db`` two beams off,
-   falling as ``1/k^2`` with the offset (:func:`beam_mixing`): the arcs across the fan of a
+   falling as ``1/k^2`` with the offset (:mod:`auvlink.sim.azimuth_response`, by FFT): the arcs across the fan of a
    strong return.
 4. Speckle (multiplicative, unit mean: gamma intensity of ``speckle_looks`` looks, times a gamma
    texture of shape ``texture_shape`` when > 0: K-distributed amplitude), additive noise
@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 from scipy import special
 
 from auvlink.sim.acoustics import Acoustics
+from auvlink.sim.azimuth_response import AzimuthMixer
 from auvlink.sim.sonar_geometry import RayFan
 
 F64 = NDArray[np.float64]
@@ -64,8 +65,6 @@ MIN_SPAN_BINS = 1e-3
 MIN_COS = 0.05
 #: widest interference band, bins (a DVL ping of ~1 ms blanks a few centimetres of range)
 MAX_BAND_BINS = 7
-#: OpenBLAS multiplies a GEMM of fewer multiply-adds on one thread (SMP_THRESHOLD_MIN x 4, interface/gemm.c)
-SINGLE_THREAD_GEMM = 65536 * 4 - 1
 SINC2_HALF_POWER = 0.442946470689452  # x where (sin(pi x) / (pi x))^2 = 1/2
 
 
@@ -98,7 +97,7 @@ EXP_TABLE = np.asarray(-np.log1p(-(np.arange(65536) + 0.5) / 65536.0), np.float3
 
 
 def spread_in_range(energy: FArray, pulse_bins: float) -> FArray:
-    """Beam-major (beams, bins): each bin's energy spread uniformly over the next ``pulse_bins`` bins
+    """Range-major (bins, beams): each bin's energy spread uniformly over the next ``pulse_bins`` bins
     (``floor`` whole bins, then the fraction in one more): a rectangular pulse, energy kept."""
     if pulse_bins <= 1.0:
         return energy
@@ -106,36 +105,19 @@ def spread_in_range(energy: FArray, pulse_bins: float) -> FArray:
     frac = pulse_bins - whole
     out = energy.copy()
     for j in range(1, whole):  # one pass per whole tap of the pulse
-        out[:, j:] += energy[:, :-j]
+        out[j:] += energy[:-j]
     if frac > 0.0:
-        out[:, whole:] += energy.dtype.type(frac) * energy[:, :-whole]
+        out[whole:] += energy.dtype.type(frac) * energy[:-whole]
     out *= energy.dtype.type(1.0 / pulse_bins)
     return out
 
 
-def beam_mixing(n_beams: int, width_beams: float, sidelobe_db: float) -> F64:
-    """(n_beams, n_beams) two-way azimuth response: row ``i`` = how beam ``i`` receives a return on
-    each beam's axis. Main lobe gaussian, -3 dB at ``width_beams / 2`` beam spacings; sidelobes from
-    two beams off at ``sidelobe_db``, falling as ``(2 / k)^2`` with the offset ``k`` (the 1/x^2
-    envelope of a uniformly weighted aperture's sinc^2), whichever is higher."""
-    k = np.abs(np.arange(n_beams)[:, None] - np.arange(n_beams)[None, :]).astype(float)
-    main = np.exp(-4.0 * math.log(2.0) * (k / width_beams) ** 2)
-    side = 10.0 ** (sidelobe_db / 10.0) * (2.0 / np.maximum(k, 2.0)) ** 2
-    return np.where(k >= 2.0, np.maximum(main, side), main)
-
-
-def spread_across_beams(energy: FArray, mixing: FArray) -> FArray:
-    """Beam-major (beams, bins): every beam's received energy through the azimuth response ``mixing``.
-
-    In blocks of bins small enough that OpenBLAS multiplies each on one thread (below its
-    ``65536 * 4`` multiply-add threshold): threads cost more than they give at this size, far more on
-    a loaded machine."""
-    nb = mixing.shape[0]
-    step = max(1, SINGLE_THREAD_GEMM // (nb * nb))
-    out = np.empty_like(energy)
-    for a in range(0, energy.shape[1], step):
-        np.matmul(mixing, energy[:, a:a + step], out=out[:, a:a + step])
-    return out
+def running_sum(rows: F64) -> F64:
+    """Cumulative sum down the rows of a C-contiguous ``(lines, beams)`` array, in place: one vector add per
+    line (numpy's ``cumsum(axis=0)`` walks it column by column, three times slower at 4096 x 512)."""
+    for i in range(1, rows.shape[0]):
+        np.add(rows[i - 1], rows[i], out=rows[i])
+    return rows
 
 
 def tapered_pattern(shape: str, width: float, phi: F64, extent: float) -> F64:
@@ -167,7 +149,7 @@ class AcousticImager:
         draw = np.random.default_rng(np.random.SeedSequence([seed, ACOUSTIC_STREAM]))
         self.gain_db = params.gain_db + params.gain_jitter_db * (2.0 * draw.random() - 1.0)
         self.table = speckle_table(params.speckle_looks, params.texture_shape)
-        self.mixing = beam_mixing(g.n_beams, params.azimuth_width_beams, params.sidelobe_db).astype(np.float32)
+        self.mixer = AzimuthMixer(g.n_beams, params.azimuth_width_beams, params.sidelobe_db)
 
     def sample_energy(self, rng_: F64, cos2: F64, diffuse: F64, is_object: NDArray[np.bool_]) -> F64:
         """Energy of every sample (step 1): ranges (m), cos^2 of incidence, diffuse strength (linear)."""
@@ -187,8 +169,16 @@ class AcousticImager:
         return np.where(np.isfinite(rng_), e, 0.0)
 
     def integrate(self, rng_: F64, energy: F64, surface: NDArray[np.int32]) -> F64:
-        """Bin energies (n_beams, n_bins), beam-major, from the samples (step 2); ``surface`` -1 the
-        seabed, else the object's index."""
+        """Bin energies (n_bins, n_beams), range-major like the image, from the samples (step 2); ``surface``
+        -1 the seabed, else the object's index."""
+        first, band = self.lit_band(rng_, energy, surface)
+        out = np.zeros((self.g.n_bins, self.g.n_beams))
+        out[first:first + band.shape[0]] = band
+        return out
+
+    def lit_band(self, rng_: F64, energy: F64, surface: NDArray[np.int32]) -> tuple[int, F64]:
+        """:meth:`integrate` on the range lines that can hold energy alone: the first such line and the band
+        ``(lines, n_beams)`` from it to the last (every other line is 0)."""
         g = self.g
         nb, nk, n = g.n_beams, g.k, g.n_bins
         x = ((rng_ - g.window_start) / g.bin_width).reshape(nk, nb)
@@ -203,52 +193,68 @@ class AcousticImager:
         single[:-1] -= joined
         own = 0.5 * e * single
         slope = np.where(joined, 0.5 * (e[:-1] + e[1:]) / np.where(joined, span, 1.0), 0.0)
-        # G(j) = sum of slope * ((j - a)_+ - (j - b)_+) over the segments, plus the steps of the rest;
-        # bin m = G(m + 1) - G(m) = S1(m + 1) + m * b1(m + 1) - b0(m + 1), S1 the running sum of the
-        # slope changes b1 and b0 the changes of slope * breakpoint (local bins: well conditioned)
-        stride = n + 1
-        base = np.arange(nb) * stride
-        c = np.clip(np.nan_to_num(np.concatenate([np.fmin(x[:-1], x[1:]), np.fmax(x[:-1], x[1:])]),
-                                  nan=0.0, posinf=n), 0.0, n)
-        w = np.concatenate([slope, -slope])
-        at = (np.floor(c).astype(np.int64) + 1 + base).ravel()
-        inside = np.isfinite(x) & (x >= 0.0) & (x < n)
-        pts = (np.floor(np.where(inside, x, 0.0)).astype(np.int64) + 1 + base).ravel()
-        size = nb * stride + 1
-        b1 = np.bincount(at, weights=w.ravel(), minlength=size)
-        b0 = np.bincount(np.concatenate([at, pts]), minlength=size,
-                         weights=np.concatenate([(w * c).ravel(), -np.where(inside, own, 0.0).ravel()]))
-        v = (np.cumsum(b1) - b0)[: nb * stride].reshape(nb, stride)[:, 1:]
-        v += np.arange(n) * b1[: nb * stride].reshape(nb, stride)[:, 1:]
-        return np.maximum(v, 0.0)
+        # a segment of level ``slope`` over [a, b) bins: bin m holds slope * (overlap of [m, m + 1) and [a, b));
+        # bin m = S1(m) - sum over breakpoints c in bin m of w frac(c), S1 the running sum of the slope changes
+        # w (+slope at a, -slope at b) up to bin m: a running sum over the band and sparse corrections
+        seg = np.concatenate([joined, joined]).ravel()
+        c = np.concatenate([np.fmin(x[:-1], x[1:]), np.fmax(x[:-1], x[1:])]).ravel()[seg]
+        c = np.clip(c, 0.0, n)
+        w = np.concatenate([slope, -slope]).ravel()[seg]
+        row = np.floor(c).astype(np.int64)
+        beam = np.broadcast_to(np.arange(nb), (2 * (nk - 1), nb)).ravel()[seg]
+        inside = (np.isfinite(x) & (x >= 0.0) & (x < n) & (own != 0.0)).ravel()
+        pts_row = np.floor(x.ravel()[inside]).astype(np.int64)
+        rows = np.concatenate([row, pts_row])
+        if rows.size == 0:
+            return 0, np.zeros((0, nb))
+        lo, hi = int(rows.min()), int(rows.max()) + 1  # hi may be n + 1: a segment's end clipped to the window's
+        cell = (row - lo) * nb + beam
+        size = (hi - lo) * nb
+        v = running_sum(np.bincount(cell, weights=w, minlength=size).astype(float, copy=False).reshape(hi - lo, nb))
+        pts = (pts_row - lo) * nb + np.broadcast_to(np.arange(nb), (nk, nb)).ravel()[inside]
+        fix = np.concatenate([-w * (c - row), own.ravel()[inside]])
+        v += np.bincount(np.concatenate([cell, pts]), weights=fix, minlength=size).reshape(hi - lo, nb)
+        v = v[: min(hi, n) - lo]
+        return lo, np.maximum(v, 0.0, out=v)
 
     def expected(self, rng_: F64, cos2: F64, diffuse: F64, surface: NDArray[np.int32]) -> F32:
-        """Expected bin energy (steps 1-3) before speckle, noise and gain; beam-major (n_beams, n_bins),
-        float32 after the integral (ample for an 8-bit log image)."""
+        """Expected bin energy (steps 1-3) before speckle, noise and gain; range-major (n_bins, n_beams),
+        float32 after the integral (ample for an 8-bit log image). The pulse and the beam mixing run on the
+        lit band of range lines alone (:meth:`lit_band`; the others stay 0)."""
         e = self.sample_energy(rng_, cos2, diffuse, surface >= 0)
-        img = self.integrate(rng_, e, surface).astype(np.float32)
-        img = spread_in_range(img, self.p.pulse_m / self.g.bin_width)
-        return spread_across_beams(img, self.mixing)
+        lo, band = self.lit_band(rng_, e, surface)
+        img = np.zeros((self.g.n_bins, self.g.n_beams), np.float32)
+        if band.shape[0] == 0:
+            return img
+        pulse_bins = self.p.pulse_m / self.g.bin_width
+        hi = min(self.g.n_bins, lo + band.shape[0] + 1 + int(pulse_bins))
+        img[lo:lo + band.shape[0]] = band
+        img[lo:hi] = self.mixer(spread_in_range(img[lo:hi], pulse_bins))
+        return img
 
     def display(self, energy: F32 | F64, rng: np.random.Generator | None) -> U8:
-        """Speckle, noise, interference and gain (step 4) of beam-major energies; the 8-bit log display
-        as the image ``[range bin, beam]``."""
+        """Speckle, noise, interference and gain (step 4) of range-major energies: the 8-bit log display,
+        the image ``[range bin, beam]``."""
         p = self.p
         energy32 = energy.astype(np.float32, copy=False)
         if rng is None:
-            power = energy32 + self.noise
+            power = energy32 + self.noise[:, None]
         else:
             size = energy.size
             raw = rng.bit_generator.random_raw((size + 1) // 2).astype("<u8", copy=False).view("<u2")
-            power = energy32 * np.take(self.table, raw[:size]).reshape(energy.shape)
-            power += self.noise * np.take(EXP_TABLE, raw[size:2 * size]).reshape(energy.shape)
+            power = self.noise[:, None] * np.take(EXP_TABLE, raw[size:2 * size]).reshape(energy.shape)
+            lit = np.flatnonzero(energy32.any(axis=1))  # speckle multiplies 0 elsewhere: look up lit lines only
+            if lit.size:
+                a, b = int(lit[0]), int(lit[-1]) + 1
+                speckle = np.take(self.table, raw[a * energy.shape[1]:b * energy.shape[1]]).reshape(b - a, -1)
+                power[a:b] += energy32[a:b] * speckle
             hit, row, width = rng.random(), rng.integers(self.g.n_bins), rng.integers(1, MAX_BAND_BINS + 1)
             level = 10.0 ** (p.interference_db / 10.0) * (0.5 + rng.random(self.g.n_beams, np.float32))
             if hit < p.interference_fraction:
-                power[:, row:row + width] += level[:, None]
+                power[row:row + width] += level
         scale = np.float32(10.0 * 256.0 / p.display_range_db)
         with np.errstate(divide="ignore"):
-            q = np.log10(power)
+            q = np.log10(power, out=power)
         q += np.float32((self.gain_db - p.display_floor_db) / 10.0)
         q *= scale
-        return np.ascontiguousarray(np.clip(q, 0.0, 255.0).astype(np.uint8).T)
+        return np.clip(q, 0.0, 255.0, out=q).astype(np.uint8)
