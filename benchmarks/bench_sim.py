@@ -22,6 +22,8 @@ Run: ``auvlink bench sim --out DIR`` (or ``python benchmarks/bench_sim.py --out 
 - Acoustic profiles (:mod:`auvlink.sim.acoustics`): frames/s of ``ideal`` and of each realistic
   profile on the same frames, in the same run (``profiles``; goal >= 200 frames/s, the real sonar
   pings at up to 15-20 per second).
+- Sonar models (:mod:`_sim_models`): frames/s of every simulated model (DIDSON, ARIS, Oculus M750d/M1200d at
+  512 beams x 4096 range lines) on the survey flown with it, ``ideal`` and its own realistic profile (``models``).
 - Smoke mode (``AUVLINK_BENCH_SMOKE=1``): 8 frames per kind, one repeat, every 8th survey pose probed.
 """
 
@@ -35,56 +37,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import best_time, script_main, smoke, table, write_json
+from _common import script_main, smoke, table, write_json
+from _sim_frames import fps, fps_cpu, frames_of
 from _sim_log import run_log
+from _sim_models import model_rows
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.acoustics import PROFILES, AcousticsTable
 from auvlink.sim.scene import Scene, load_default_scene
 from auvlink.sim.sonar_geometry import RayFan
-from auvlink.sim.sonar_render import MISS, OBJECT, SonarRenderer
-from auvlink.sim.trajectory import LawnmowerTrajectory
-
-
-def _frames(scene: Scene, n: int, stride: int = 1) -> dict[str, tuple[np.ndarray, Rotation]]:
-    """Poses of up to ``n`` survey frames with an object in view (a return inside the range window), and ``n``
-    that see only the seabed in the window (every ``stride``-th frame of the survey probed)."""
-    tr = LawnmowerTrajectory.from_scene(scene)
-    pose = tr.true_pose(np.arange(0.0, tr.duration, stride / scene.sonar.fps))
-    probe = SonarRenderer(scene, cull="none", speckle=False)
-    mats = pose.rotation().as_matrix()
-    end = scene.sonar.window_start + scene.sonar.window_length
-
-    def in_window(p: np.ndarray, m: np.ndarray) -> tuple[bool, bool]:  # an object, anything, in the window
-        h = probe.trace_matrix(p, m)
-        lit = (h.kind != MISS) & (h.range < end)
-        return bool((lit & (h.kind == OBJECT)).any()), bool(lit.any())
-
-    seen, lit = np.array([in_window(p, m) for p, m in zip(pose.position, mats, strict=True)]).T
-    out = {}
-    for name, mask in (("objects in view", seen), ("seabed only", lit & ~seen)):
-        idx = np.flatnonzero(mask)[:n]
-        out[name] = (pose.position[idx], Rotation.from_matrix(mats[idx]))
-    return out
-
-
-def _fps(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation], repeat: int) -> float:
-    """Frames/s, wall clock, best of ``repeat`` passes."""
-    pos, rot = frames
-    t = best_time(lambda: sum(1 for _ in rd.render_sequence(pos, rot, seed=1)), repeat)
-    return len(pos) / t
-
-
-def _fps_cpu(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation], repeat: int) -> float:
-    """Frames/s of process CPU time (all threads), best of ``repeat`` passes: what the machine could
-    do if this process had its cores to itself (other jobs share them while the benchmark runs)."""
-    pos, rot = frames
-    best = float("inf")
-    for _ in range(max(1, repeat)):
-        c0 = time.process_time()
-        sum(1 for _ in rd.render_sequence(pos, rot, seed=1))
-        best = min(best, time.process_time() - c0)
-    return len(pos) / best
+from auvlink.sim.sonar_render import OBJECT, SonarRenderer
 
 
 def _stage_us(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation]) -> tuple[float, float]:
@@ -136,8 +98,8 @@ def _k_sweep(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]],
         both = np.isfinite(ref) & np.isfinite(near)
         rows.append({
             "K": k, "rays": rd.geometry.n_rays,
-            "fps_objects": _fps(rd, frames["objects in view"], repeat),
-            "fps_seabed": _fps(rd, frames["seabed only"], repeat),
+            "fps_objects": fps(rd, frames["objects in view"], repeat),
+            "fps_seabed": fps(rd, frames["seabed only"], repeat),
             "onset_err_bins": _onset_error_bins(k),
             "highlight_err_m": float(np.abs(near - ref)[both].mean()),
             "beams_missed": float((np.isfinite(ref) & ~np.isfinite(near)).sum()
@@ -161,8 +123,8 @@ def _bins_sweep(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]], re
         b = g.bin_of_range(np.where(both, near, np.inf))
         binned = np.where(b >= 0, g.range_of_bin[np.maximum(b, 0)], np.nan)
         ok = both & np.isfinite(binned)
-        fps = _fps(rd, frames["objects in view"], repeat)
-        rows.append({"n_bins": nb, "bin_m": g.bin_width, "fps_objects": fps,
+        rate = fps(rd, frames["objects in view"], repeat)
+        rows.append({"n_bins": nb, "bin_m": g.bin_width, "fps_objects": rate,
                      "highlight_err_m": float(np.abs(binned - ref)[ok].mean())})
     return rows
 
@@ -185,10 +147,10 @@ def _profiles(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]], repe
     for name in PROFILES:
         rd = SonarRenderer(replace(scene, acoustics=None if name == "ideal" else AcousticsTable(profile=name)))
         rows.append({"profile": name, "rays": rd.geometry.n_rays,
-                     "fps_objects": _fps(rd, frames["objects in view"], repeat),
-                     "fps_seabed": _fps(rd, frames["seabed only"], repeat),
-                     "fps_cpu_objects": _fps_cpu(rd, frames["objects in view"], repeat),
-                     "fps_cpu_seabed": _fps_cpu(rd, frames["seabed only"], repeat)})
+                     "fps_objects": fps(rd, frames["objects in view"], repeat),
+                     "fps_seabed": fps(rd, frames["seabed only"], repeat),
+                     "fps_cpu_objects": fps_cpu(rd, frames["objects in view"], repeat),
+                     "fps_cpu_seabed": fps_cpu(rd, frames["seabed only"], repeat)})
     return rows
 
 
@@ -224,7 +186,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     n, repeat, stride = (150, 3, 1) if quick else (600, 5, 1)
     if smoke():
         n, repeat, stride = 8, 1, 8
-    frames = _frames(scene, n, stride)
+    frames = frames_of(scene, n, stride)
     flat = replace(scene, seabed=replace(scene.seabed, slope_deg=0.0, roughness=0.0))
     rows = []
     for view, fr in frames.items():
@@ -232,13 +194,13 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
             rd = SonarRenderer(scene, cull=cull)
             trace_us, image_us = _stage_us(rd, fr)
             rows.append({"frames": view, "seabed": "sloped rough", "cull": cull, "n": len(fr[0]),
-                         "fps": _fps(rd, fr, repeat), "fps_cpu": _fps_cpu(rd, fr, repeat),
+                         "fps": fps(rd, fr, repeat), "fps_cpu": fps_cpu(rd, fr, repeat),
                          "trace_us": trace_us, "image_us": image_us})
     rd_flat = SonarRenderer(replace(flat, objects=()))
     trace_us, image_us = _stage_us(rd_flat, frames["seabed only"])
     rows.append({"frames": "seabed only", "seabed": "flat", "cull": "rays",
-                 "n": len(frames["seabed only"][0]), "fps": _fps(rd_flat, frames["seabed only"], repeat),
-                 "fps_cpu": _fps_cpu(rd_flat, frames["seabed only"], repeat),
+                 "n": len(frames["seabed only"][0]), "fps": fps(rd_flat, frames["seabed only"], repeat),
+                 "fps_cpu": fps_cpu(rd_flat, frames["seabed only"], repeat),
                  "trace_us": trace_us, "image_us": image_us})
     print(table(rows, ["frames", "seabed", "cull", "n", "fps", "fps_cpu", "trace_us", "image_us"]))
     pos, rot = frames["objects in view"]
@@ -253,13 +215,17 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     profiles = _profiles(scene, frames, repeat)
     print()
     print(table(profiles, ["profile", "rays", "fps_objects", "fps_seabed", "fps_cpu_objects", "fps_cpu_seabed"]))
+    models = model_rows(scene, n, stride, repeat)
+    print()
+    print(table(models, ["model", "image", "acoustics", "fps_objects", "fps_seabed", "fps_cpu_objects",
+                         "fps_cpu_seabed"]))
     identical = _culling(scene, frames)
     contract = _contract(rows, sweep, bins, identical, scene.sonar.rays_per_beam)
     print()
     print(table(contract["peers"], ["what", "ours_s", "peer_s", "ratio", "identical"]))
     k32 = {r["frames"]: r for r in rows if r["cull"] == "rays" and r["seabed"] == "sloped rough"}
     result: dict[str, Any] = {
-        "rows": rows, "k_sweep": sweep, "bins_sweep": bins, "profiles": profiles, "goal_fps": 400.0,
+        "rows": rows, "k_sweep": sweep, "bins_sweep": bins, "profiles": profiles, "models": models, "goal_fps": 400.0,
         "goal_fps_profiles": 200.0, **contract,
         "fps_k32_objects": k32["objects in view"]["fps"], "fps_k32_seabed": k32["seabed only"]["fps"],
         "fps_cpu_k32_objects": k32["objects in view"]["fps_cpu"],
