@@ -10,16 +10,8 @@ frame, for the same scene. Pooled to the DIDSON's sampling it gives recon what r
 - azimuth: groups of ``beams`` adjacent beams, as many as fit in the DIDSON's beam spacing at the centre of the
   fan (none where the beams are already that far apart); the group's azimuth is the mean of its beams'.
 
-Each pooled pixel is the mean echo intensity of its group, read through the log display (grey levels are dB over
-``display_range_db``): what a resolution cell of the coarser sampling integrates, so that the pooled frame's
-levels are those of the scene at recon's sampling. Not the group's maximum: the largest of ``n`` speckle samples
-stands ``ln n + 0.58`` nepers above their mean intensity (exponential speckle; +5.3 dB for the 8 x 2 = 16 samples
-of an M750d's group), by an amount that depends on each region's own statistics (noise, seabed, a steady target)
-and with a spread narrower than one sample's. Recon's levels and margins are measured on the frames against
-that spread (a return must stand above the seabed's onset level, the water's extrapolated speckle tail): the
-seabed's leading ramp, lifted by the maximum, came out of them before the onset and made flat patches of
-points above the seabed. The last group of an axis may be short (its mean over the pixels it holds). Pooling by
-(1, 1), the DIDSON's and the ARIS's case, returns the frames as they are.
+Each pooled pixel is the maximum of its group (a return's first bright line and its level survive). The last
+group of an axis may be short. Pooling by (1, 1), the DIDSON's and the ARIS's case, returns the frames as they are.
 """
 
 from __future__ import annotations
@@ -45,19 +37,17 @@ class ImagePooling:
 
     rows: int = 1
     beams: int = 1
-    display_range_db: float = 60.0  # dB the 8-bit log display spans (recon.recon_config.ReconConfig's)
 
     @classmethod
-    def for_geometry(cls, geometry: SonarGeometry, spacing: float = BEAM_SPACING,
-                     display_range_db: float = 60.0) -> ImagePooling:
+    def for_geometry(cls, geometry: SonarGeometry, spacing: float = BEAM_SPACING) -> ImagePooling:
         """The pooling of ``geometry``'s frames: rows to :data:`MAX_RANGE_ROWS`, beams to ``spacing`` (rad) at the
-        centre of the fan (the median spacing of its beams); grey levels on a log display of ``display_range_db``."""
+        centre of the fan (the median spacing of its beams)."""
         rows = max(1, math.ceil(geometry.n_bins / MAX_RANGE_ROWS))
         beams = 1
         if geometry.n_beams > 1:
             own = float(np.median(np.diff(geometry.azimuths)))
             beams = max(1, int(spacing / own)) if own > 0 else 1
-        return cls(rows, beams, display_range_db)
+        return cls(rows, beams)
 
     @property
     def identity(self) -> bool:
@@ -74,21 +64,16 @@ class ImagePooling:
                        azimuth_table=tuple(float(a) for a in az))
 
     def apply(self, frames: NDArray[np.uint8]) -> NDArray[np.uint8]:
-        """The pooled stack (F, bins, beams) -> (F, ceil(bins / rows), ceil(beams / beams)), uint8: each group's mean
-        intensity (module docstring) back on the display's grey levels (a uniform group keeps its level)."""
+        """The pooled stack (F, bins, beams) -> (F, ceil(bins / rows), ceil(beams / beams)), uint8."""
         if self.identity:
             return frames
         f, n_bins, n_beams = frames.shape
         nr, nb = math.ceil(n_bins / self.rows), math.ceil(n_beams / self.beams)
-        db_per_level = self.display_range_db / 256.0
-        power = np.power(np.float32(10.0), np.arange(256, dtype=np.float32) * np.float32(db_per_level / 10.0))
-        padded = np.zeros((f, nr * self.rows, nb * self.beams), np.float32)  # short last groups: 0 power
-        np.take(power, frames, out=padded[:, :n_bins, :n_beams])
-        total = padded.reshape(f, nr, self.rows, nb, self.beams).sum(axis=(2, 4))
-        count = np.outer(np.diff(np.minimum(np.arange(nr + 1) * self.rows, n_bins)),
-                         np.diff(np.minimum(np.arange(nb + 1) * self.beams, n_beams))).astype(np.float32)
-        level = np.log10(total / count) * np.float32(10.0 / db_per_level)
-        return np.clip(np.rint(level), 0.0, 255.0).astype(np.uint8)
+        padded = frames
+        if (nr * self.rows, nb * self.beams) != (n_bins, n_beams):  # short last groups: 0, below every return
+            padded = np.zeros((f, nr * self.rows, nb * self.beams), np.uint8)
+            padded[:, :n_bins, :n_beams] = frames
+        return np.asarray(padded.reshape(f, nr, self.rows, nb, self.beams).max(axis=(2, 4)), np.uint8)
 
 
 def _group_means(azimuths: NDArray[np.float64], k: int) -> NDArray[np.float64]:

@@ -43,35 +43,18 @@ def test_oculus_frames_pooled_to_recons_sampling(model: str, mode: str) -> None:
     assert abs(pg.azimuths[0] - g.azimuths[0]) < pool.beams * spacing.max()
 
 
-def test_a_pooled_pixel_is_the_mean_intensity_of_its_group_and_the_first_return_keeps_its_range() -> None:
+def test_a_pooled_pixel_is_the_maximum_of_its_group_and_the_first_return_keeps_its_range() -> None:
     g = SonarGeometry.from_degrees(30.0, 12.0, n_bins=1000, n_beams=10)
     pool = ImagePooling(rows=8, beams=3)  # 1000 rows -> 125, 10 beams -> 4 (the last group of one beam)
     frames = np.zeros((1, 1000, 10), np.uint8)
     frames[0, 803, 4] = 200  # a return at range row 803 in beam 4
-    frames[0, 992:, 9] = 7  # the last row group and beam: a short group (8 x 1) of its own level
-    frames[0, 16:24, 0:3] = 99  # a uniform group keeps its level
+    frames[0, 999, 9] = 7  # the last row and beam: short groups count too
     out = pool.apply(frames)
     assert out.shape == (1, 125, 4) and out.dtype == np.uint8
-    # one pixel of 24 at 200 levels (60 dB over 256): 10 log10(24) dB = 58.9 levels under it, the rest at 0
-    assert out[0, 803 // 8, 4 // 3] == round(200 - 10.0 * math.log10(24) * 256.0 / 60.0)
-    assert out[0, 124, 3] == 7 and out[0, 2, 0] == 99
-    assert np.count_nonzero(out) == 3
+    assert out[0, 803 // 8, 4 // 3] == 200 and out[0, 124, 3] == 7 and int(out.sum()) == 207
     pg = pool.geometry(g)
     r = g.ranges[803]
     assert abs(pg.ranges[803 // 8] - r) <= 4 * g.bin_size  # within half a pooled row of the original range
     np.testing.assert_allclose(pg.azimuths[:3], [g.azimuths[0:3].mean(), g.azimuths[3:6].mean(),
                                                  g.azimuths[6:9].mean()])
     assert pg.azimuths[3] == pytest.approx(g.azimuths[9])
-
-
-@pytest.mark.parametrize("looks", [1.0, 2.0])
-def test_pooled_speckle_sits_at_its_mean_intensity_not_above_it(looks: float) -> None:
-    """Gamma speckle of unit mean intensity at level 100 on a 60 dB display, pooled 8 x 2: the pooled levels centre
-    on 100 (the cells' echo level), where the group's maximum would lift them by 3.7-5.3 dB."""
-    draw = np.random.default_rng(3)
-    intensity = draw.gamma(looks, 1.0 / looks, (4, 512, 64)) * 10.0 ** (100 * 60.0 / 2560.0)
-    frames = np.clip(np.floor(10.0 * np.log10(intensity) * 256.0 / 60.0), 0, 255).astype(np.uint8)
-    pooled = ImagePooling(rows=8, beams=2).apply(frames).astype(float)
-    assert abs(np.median(pooled) - 100.0) <= 3.0  # the floor of the display's steps: under half a dB
-    lifted = frames.reshape(4, 64, 8, 32, 2).max(axis=(2, 4)).astype(float)
-    assert np.median(lifted) - 100.0 > 3.5 * 256.0 / 60.0  # +3.7 dB (2 looks) to +5.3 dB (1 look)

@@ -202,7 +202,7 @@ class Engine:
         if self.rec is None:
             frames = sonar_geometry(self.setup, first.azimuths, first.window, n_bins=first.image.shape[0])
             self._frame_shape = (frames.n_bins, frames.n_beams)
-            self.pooling = ImagePooling.for_geometry(frames, display_range_db=self.recon_config.display_range_db)
+            self.pooling = ImagePooling.for_geometry(frames)
             self.geometry = self.pooling.geometry(frames)
             self.rec = Reconstructor(self.geometry, self.nav, self.recon_config,
                                      dvl_max_pitch=np.radians(self.config.max_pitch_deg))
