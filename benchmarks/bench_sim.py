@@ -215,7 +215,8 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     profiles = _profiles(scene, frames, repeat)
     print()
     print(table(profiles, ["profile", "rays", "fps_objects", "fps_seabed", "fps_cpu_objects", "fps_cpu_seabed"]))
-    models = model_rows(scene, n, stride, repeat)
+    # smoke: two frames of each kind per model, every 32nd survey pose probed (the Oculus' 512 x 4096 frames)
+    models = model_rows(scene, 2, 32, repeat) if smoke() else model_rows(scene, n, stride, repeat)
     print()
     print(table(models, ["model", "image", "acoustics", "fps_objects", "fps_seabed", "fps_cpu_objects",
                          "fps_cpu_seabed"]))

@@ -24,8 +24,9 @@ Recon against the simulator's ground truth is evaluation, in the application lay
   :mod:`recon.seabed_texture`: the texture grid); stage 5 :mod:`recon.object_stage` (with :mod:`recon.poll_seabed`:
   seabed removal and clutter, :mod:`recon.cluster` (with :mod:`recon.cluster_grid`), :mod:`recon.cluster_stream`,
   :mod:`recon.cluster_index`,
-  :mod:`recon.fusion`: clustering across passes, :mod:`recon.front_slope` and :mod:`recon.far_side`: the final
-  objects' points and centroids, :mod:`recon.shape`: footprints);
+  :mod:`recon.fusion`: clustering across passes, :mod:`recon.arc_consensus` (where the arcs of a return's frames
+  meet), :mod:`recon.front_slope` and :mod:`recon.far_side`: the final objects' points and centroids,
+  :mod:`recon.shape`: footprints);
 - :mod:`recon.image_pooling` (frames finer than recon's sampling pooled to it), :mod:`recon.errors`,
   :mod:`recon.ply` (PLY output), :mod:`recon.synthetic` (frames from analytic shapes, for
   tests and benchmarks).

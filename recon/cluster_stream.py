@@ -15,7 +15,7 @@ of a poll does not grow with the number of objects emitted before it.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from recon.cluster import (
     F64,
@@ -62,6 +62,10 @@ class StreamingClusterer:
         self._pts.append(p)
         self._ts.append(t)
         self._ex.append(e)
+
+    def near_emitted(self, points: ArrayLike) -> NDArray[np.bool_]:
+        """Per point (N, 3): within ``eps`` of an emitted object's points or ``footprint_gap`` of its box."""
+        return self._final.late(np.asarray(points, dtype=np.float64).reshape(-1, 3))
 
     def bounds(self) -> tuple[F64, F64] | None:
         """Horizontal box (lo, hi) of the points not yet emitted; None when there are none."""

@@ -108,7 +108,8 @@ class ObjectStage:
     def _revisit(self, p: F64, t: F64, e: F64, latest: bool) -> tuple[F64, F64, F64]:
         """Of points removed as seabed, those a seabed model fitted now over their box puts above it: the model under
         a point matures as the survey adds samples around it (the next lines, a crossing), and a low object its
-        first fit followed (few cells around it at a line's start) stands out of the later one. ``latest``: that
+        first fit followed (few cells around it at a line's start) stands out of the later one; points next to an
+        object already emitted stay removed (an emitted object is not grown again). ``latest``: that
         model is the poll's (no new points were fitted), the one the objects are given their seabed from."""
         model = self.memory.fit(p[:, :2].min(axis=0), p[:, :2].max(axis=0))
         if model is None:
@@ -116,6 +117,8 @@ class ObjectStage:
         if latest:
             self.seabed = model
         keep = object_points(p, model, self.config.seabed)
+        if self._stream is not None:  # they recover lost objects; an object already emitted stays as it was
+            keep &= ~self._stream.near_emitted(p)
         self.seabed_removed -= int(keep.sum())
         return p[keep], t[keep], e[keep]
 

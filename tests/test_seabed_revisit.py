@@ -98,3 +98,17 @@ def test_the_end_of_the_mission_tests_every_removed_point_again(streaming: bool)
         fits = mem.fits
         mem.depth = 9.72
         assert s.finish() == [] and mem.fits == fits + 1
+
+
+def test_points_next_to_an_emitted_object_stay_removed() -> None:
+    mem = LevelMemory(depth=9.0)  # the object at 8.7 stands 0.3 m out: emitted
+    s = stage(mem)
+    p, t, e = low_object(0.0)
+    s.add(p - np.array([0.0, 0.0, 1.0]), t, e)
+    assert len(s.poll(np.array([100.0, 100.0, 5.0]), 10.0)) == 1
+    mem.depth = 9.72  # its flank, 0.02 m over the next fit, removed ...
+    s.add(p, t + 20.0, e)
+    s.take_pending()
+    mem.depth = 10.0  # ... stands out later, next to the emitted object: not brought back to grow it
+    s.add(*far_points(25.0 + s.config.seabed.revisit_s))
+    assert s.take_pending()[0].shape[0] == 2
