@@ -42,12 +42,11 @@ import numpy.typing as npt
 from auvlink.progress import progress_bar
 from classify.errors import SynthesisError
 from classify.labels import CLUTTER
+from classify.training.scan_synth import recon_correction
 from classify.training.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry
 from classify.training.synthesis_settings import SynthesisSettings
 from classify.training.views import training_cloud
-from recon.arc_consensus import consensus_points
 from recon.cluster import DetectedObject, cluster
-from recon.front_slope import replace_on_arcs
 from recon.poll_seabed import object_points, on_seabed
 from recon.reconstructor import ReconConfig
 from recon.seabed_memory import SeabedMemory
@@ -135,11 +134,8 @@ def clutter_clouds(settings: SynthesisSettings, rng: np.random.Generator, cfg: R
     out = []
     spread = math.radians(settings.spread_deg)
     for o, depth in recon_clusters(lines, cfg, poll):
-        pts, steep = consensus_points(o.points, o.extra, o.times, spread, depth) if settings.arc_consensus \
-            else (o.points, None)
-        fixed = replace_on_arcs(pts, o.extra, spread, cfg.front_slope_length, cfg.front_slope_width, steepest=steep)
-        blend = float(rng.uniform(*settings.correction_blend))
-        out.append((np.asarray(pts + blend * (fixed - pts)), depth))
+        out.append((recon_correction(o.points, o.extra, o.times, depth, spread, cfg.front_slope_length,
+                                     cfg.front_slope_width, settings, rng), depth))
     return out, heading, tilt
 
 

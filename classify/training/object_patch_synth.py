@@ -38,11 +38,10 @@ from auvlink.sim.scene import SceneObject
 from auvlink.sim.seabed import SeabedSurface
 from classify.errors import SynthesisError
 from classify.training.clutter_synth import recon_clusters
+from classify.training.scan_synth import recon_correction
 from classify.training.seabed_returns import LineReturns, draw_seabed, fly_lines, onset_geometry, relative_to_steel
 from classify.training.synthesis_settings import SynthesisSettings
 from classify.training.views import training_cloud
-from recon.arc_consensus import consensus_points
-from recon.front_slope import replace_on_arcs
 from recon.reconstructor import ReconConfig
 
 F64 = npt.NDArray[np.float64]
@@ -109,11 +108,8 @@ def object_patch_view(class_name: str, vertices: F64, triangles: npt.NDArray[np.
     if np.linalg.norm(o.centroid[:2] - c) > settings.object_patch_offset_m:
         return None
     spread = math.radians(settings.spread_deg)
-    pts, steep = consensus_points(o.points, o.extra, o.times, spread, depth) if settings.arc_consensus \
-        else (o.points, None)
-    fixed = replace_on_arcs(pts, o.extra, spread, cfg.front_slope_length, cfg.front_slope_width, steepest=steep)
-    blend = float(rng.uniform(*settings.correction_blend))
-    return np.asarray(pts + blend * (fixed - pts)), depth, heading, tilt
+    return recon_correction(o.points, o.extra, o.times, depth, spread, cfg.front_slope_length, cfg.front_slope_width,
+                            settings, rng), depth, heading, tilt
 
 
 def synthesize_object_patches(class_name: str, vertices: F64, triangles: npt.NDArray[np.integer],

@@ -269,16 +269,23 @@ def _cast(scene: Any, origins: F64, d: F64) -> tuple[F64, F64]:
 def _corrected(pts: F64, origins: F64, beams: npt.NDArray[np.int64], r: F64, heading_rad: float, tilt_rad: float,
                spread: float, settings: SynthesisSettings, rng: np.random.Generator, frames: tuple[F64, float]
                ) -> F64:
-    """Recon's front-slope correction (:func:`recon.front_slope.replace_on_arcs`, the nominal fan of ``spread``
-    rad, as recon's), a fraction drawn from ``settings.correction_blend`` of each move applied; with
-    ``settings.arc_consensus`` the points first re-placed where their frames' arcs meet (``frames``: each point's
-    position index along the pass and recon's seabed depth, m; :func:`recon.arc_consensus.consensus_points`)."""
+    """:func:`recon_correction` of one pass's points on the arcs of their beams (``frames``: each point's position
+    index along the pass and recon's seabed depth, m)."""
     u, w_vec = arc_vectors(heading_rad, tilt_rad)
     arcs = arc_record(origins, u[beams], np.broadcast_to(w_vec, (len(pts), 3)), r)
-    steep = None
-    if settings.arc_consensus:
-        pts, steep = consensus_points(pts, arcs, frames[0], spread, frames[1])
-    fixed = replace_on_arcs(pts, arcs, spread, settings.correction_length_m, settings.correction_width_m,
-                            steepest=steep)
-    blend = float(rng.uniform(*settings.correction_blend))  # recon's correction is partial on real frames
+    return recon_correction(pts, arcs, frames[0], frames[1], spread, settings.correction_length_m,
+                            settings.correction_width_m, settings, rng)
+
+
+def recon_correction(points: F64, arcs: F64, times: F64, seabed_depth: float, spread: float, length: float,
+                     width: float, settings: SynthesisSettings, rng: np.random.Generator) -> F64:
+    """Recon's placement of a cluster's final points (m): with ``settings.arc_consensus`` re-placed where their
+    frames' arcs meet (:func:`recon.arc_consensus.consensus_points`, frames by ``times``, the seabed at
+    ``seabed_depth``), then the front-slope correction (:func:`recon.front_slope.replace_on_arcs`, the nominal fan
+    of ``spread`` rad, ``length`` and ``width`` m, as recon's) of which a fraction drawn from
+    ``settings.correction_blend`` is applied (recon's correction is partial on real frames)."""
+    pts, steep = consensus_points(points, arcs, times, spread, seabed_depth) if settings.arc_consensus \
+        else (points, None)
+    fixed = replace_on_arcs(pts, arcs, spread, length, width, steepest=steep)
+    blend = float(rng.uniform(*settings.correction_blend))
     return np.asarray(pts + blend * (fixed - pts), dtype=np.float64)
