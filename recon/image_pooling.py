@@ -69,11 +69,32 @@ class ImagePooling:
             return frames
         f, n_bins, n_beams = frames.shape
         nr, nb = math.ceil(n_bins / self.rows), math.ceil(n_beams / self.beams)
-        padded = frames
+        padded = np.asarray(frames, np.uint8)
         if (nr * self.rows, nb * self.beams) != (n_bins, n_beams):  # short last groups: 0, below every return
             padded = np.zeros((f, nr * self.rows, nb * self.beams), np.uint8)
             padded[:, :n_bins, :n_beams] = frames
-        return np.asarray(padded.reshape(f, nr, self.rows, nb, self.beams).max(axis=(2, 4)), np.uint8)
+        return _max_of_groups(_max_of_groups(padded, self.rows, axis=1), self.beams, axis=2)
+
+
+def _max_of_groups(a: NDArray[np.uint8], k: int, axis: int) -> NDArray[np.uint8]:
+    """Maxima of consecutive groups of ``k`` along ``axis`` (its length a multiple of ``k``): ``k - 1`` element-wise
+    maxima of strided slices, which run at memory speed where numpy's ``max`` over a short inner axis does not
+    (a 512 x 4000 Oculus frame pooled in under 1 ms instead of 19 ms)."""
+    if k == 1:
+        return a
+    shape = a.shape[:axis] + (a.shape[axis] // k, k) + a.shape[axis + 1:]
+    groups = a.reshape(shape)
+    out = _member(groups, 0, axis + 1).copy()
+    for j in range(1, k):
+        np.maximum(out, _member(groups, j, axis + 1), out=out)
+    return out
+
+
+def _member(groups: NDArray[np.uint8], j: int, axis: int) -> NDArray[np.uint8]:
+    """The view of member ``j`` of every group (``axis``: the members' axis)."""
+    index: list[slice | int] = [slice(None)] * groups.ndim
+    index[axis] = j
+    return groups[tuple(index)]
 
 
 def _group_means(azimuths: NDArray[np.float64], k: int) -> NDArray[np.float64]:

@@ -14,8 +14,14 @@ from hypothesis import strategies as st
 from auvlink.codecs import oculus
 from auvlink.codecs.oculus_messages import OculusFire, OculusFireCommand, OculusHeader, OculusStatus
 from auvlink.errors import DecodeError
-from auvlink.framing.oculus import OculusFramer
-from auvlink.framing.oculus_defs import EXT_FLAG_DATA_32BIT, FLAG_RANGE_AS_METERS, FLAG_SEND_GAIN
+from auvlink.framing.oculus import OculusFramer, message_length
+from auvlink.framing.oculus_defs import (
+    EXT_FLAG_DATA_32BIT,
+    FLAG_RANGE_AS_METERS,
+    FLAG_SEND_GAIN,
+    HEADER,
+    OCULUS_ID_BYTES,
+)
 
 
 @pytest.fixture(scope="module")
@@ -146,3 +152,31 @@ def test_whole_message_fast_path_agrees_with_the_general_path(capture: bytes) ->
     two = capture[:5000] + capture  # a cut message then a whole one, in one feed: the general path
     general = OculusFramer()
     assert general.feed(two) + general.flush() == [capture] and general.stats.truncated == 1
+
+
+def _whole_by_scanning(raw: bytes) -> bytes | None:
+    """The whole-message check done the plain way: every id inside the message is a header it cannot hold."""
+    if message_length(raw, 0) != len(raw):
+        return None
+    inner = raw.find(OCULUS_ID_BYTES, 1)
+    while inner >= 0:
+        if message_length(raw, inner) != 0:
+            return None
+        inner = raw.find(OCULUS_ID_BYTES, inner + 1)
+    return raw
+
+
+@settings(max_examples=300, deadline=None)
+@given(payload=st.binary(max_size=120), plants=st.lists(st.tuples(
+    st.integers(0, 119), st.sampled_from([0x23, 0x15, 0x80, 0x07, 0x4F53]), st.integers(0, 3), st.integers(0, 200)),
+    max_size=4))
+def test_whole_message_check_agrees_with_scanning_every_id(payload: bytes, plants: list[tuple[int, int, int, int]]
+                                                           ) -> None:
+    body = bytearray(payload)
+    for pos, msg_id, version, size in plants:  # ids, some with a sane header after them, inside the payload
+        head = OCULUS_ID_BYTES + bytes(4) + msg_id.to_bytes(2, "little") + version.to_bytes(2, "little") \
+            + size.to_bytes(4, "little")
+        body[pos:pos + len(head)] = head
+    raw = HEADER.pack({"oculus_id": 0x4F53, "src_device_id": 0, "dst_device_id": 0,
+                           "msg_id": 0x23, "msg_version": 2, "payload_size": len(body), "spare": 0}) + bytes(body)
+    assert (OculusFramer()._whole(raw) is None) == (_whole_by_scanning(raw) is None)

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from auvlink.sonar import Sonar, describe
 from recon.image_pooling import BEAM_SPACING, MAX_RANGE_ROWS, ImagePooling
@@ -58,3 +60,19 @@ def test_a_pooled_pixel_is_the_maximum_of_its_group_and_the_first_return_keeps_i
     np.testing.assert_allclose(pg.azimuths[:3], [g.azimuths[0:3].mean(), g.azimuths[3:6].mean(),
                                                  g.azimuths[6:9].mean()])
     assert pg.azimuths[3] == pytest.approx(g.azimuths[9])
+
+
+@settings(max_examples=60, deadline=None)
+@given(f=st.integers(1, 3), n_bins=st.integers(1, 40), n_beams=st.integers(1, 12), rows=st.integers(1, 9),
+       beams=st.integers(1, 4), seed=st.integers(0, 2**32 - 1))
+def test_pooling_equals_the_maximum_over_each_group(f: int, n_bins: int, n_beams: int, rows: int, beams: int,
+                                                    seed: int) -> None:
+    frames = np.random.default_rng(seed).integers(0, 256, (f, n_bins, n_beams), dtype=np.uint8)
+    out = ImagePooling(rows=rows, beams=beams).apply(frames)
+    nr, nb = -(-n_bins // rows), -(-n_beams // beams)
+    want = np.zeros((f, nr, nb), np.uint8)
+    for i in range(nr):
+        for j in range(nb):
+            want[:, i, j] = frames[:, i * rows:(i + 1) * rows, j * beams:(j + 1) * beams].max(axis=(1, 2))
+    assert out.dtype == np.uint8 and out.shape == want.shape
+    np.testing.assert_array_equal(out, want)

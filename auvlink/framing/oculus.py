@@ -12,11 +12,19 @@ position is remembered between feeds, so every byte is searched once (linear tim
 
 from __future__ import annotations
 
+import re
+
 from auvlink.framing.base import ResumingFramer
 from auvlink.framing.oculus_defs import HEADER, KNOWN_MESSAGES, MAX_PAYLOAD, OCULUS_ID_BYTES
 
 #: highest ``msgVersion`` of the messages in Oculus.h (SimplePingResult V2)
 MAX_VERSION = 2
+#: a header's first 10 bytes as far as :func:`message_length` reads them without the size: the id, any source and
+#: destination, a known message id, a version up to MAX_VERSION (little-endian uint16)
+INNER_CANDIDATE = re.compile(
+    re.escape(OCULUS_ID_BYTES) + b"(?=.{4}(?:"
+    + b"|".join(re.escape(m.to_bytes(2, "little")) for m in sorted(KNOWN_MESSAGES))
+    + b")[" + re.escape(bytes(range(MAX_VERSION + 1))) + b"]\\x00)", re.DOTALL)
 
 
 def message_length(buf: bytes | bytearray, pos: int) -> int:
@@ -41,11 +49,16 @@ class OculusFramer(ResumingFramer):
         raw = data if isinstance(data, bytes) else bytes(data)
         if message_length(raw, 0) != len(raw):
             return None
-        inner = raw.find(OCULUS_ID_BYTES, 1)
-        while inner >= 0:  # what _extract checks: no sane (or undecidable) header inside the message
-            if message_length(raw, inner) != 0:
+        # what _extract checks: no sane (or undecidable) header inside the message. The id followed by a known
+        # message id and version is found in C (INNER_CANDIDATE); the id in the last header's length cannot be told
+        tail = max(1, len(raw) - HEADER.size + 1)
+        for m in INNER_CANDIDATE.finditer(raw, 1):
+            if m.start() >= tail:
+                break
+            if message_length(raw, m.start()) != 0:
                 return None
-            inner = raw.find(OCULUS_ID_BYTES, inner + 1)
+        if raw.find(OCULUS_ID_BYTES, tail) >= 0:
+            return None
         return raw
 
     def _inner_header(self, buf: bytearray, pos: int, n: int, final: bool) -> int:

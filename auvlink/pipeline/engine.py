@@ -181,7 +181,9 @@ class Engine:
         if not good:
             return 0
         sel, ts = sel[good], times[sel[good]]
-        stack = self.pooling.apply(np.stack([imgs[k] for k in good]))  # recon's sampling (recon.image_pooling)
+        # recon's sampling (recon.image_pooling), each frame pooled before the stack: no copy of the fine frames
+        pool = self.pooling
+        stack = np.stack([imgs[k] if pool.identity else pool.apply(imgs[k][None])[0] for k in good])
         rec.add_frames(ts, stack)
         if self.hooks.on_frames is not None:
             self.hooks.on_frames(g, ts, stack, rec.last_returns)
