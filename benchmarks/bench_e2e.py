@@ -21,6 +21,12 @@ Run: ``auvlink bench e2e --out DIR [--full]`` (or ``python benchmarks/bench_e2e.
 5. The profile of the slowest stage: the log replayed once more in a child process with the profiler on in that
    stage only (``benchmarks/_stage_profile.py``): its top functions by cumulative time.
 
+6. The Oculus path (issues 37, 38): the same survey's first line flown with a Blueprint Oculus M750d
+   (:data:`OCULUS_MODEL`, its data-sheet aperture and realistic acoustic profile: 512 beams x 4000 range lines a
+   ping) for :data:`OCULUS_MINUTES`, simulated once (cached like the DIDSON log) and replayed alike: x real time of
+   the whole process and per stage (goal >= 30x, :data:`GOAL_OCULUS_X_REALTIME`), CPU seconds, peak RSS and the
+   detections' scores (``oculus`` in the result).
+
 Quick and full (not smoke) also time ``auvlink demo --out DIR/e2e-demo`` (goal: <= 3 minutes after set-up).
 """
 
@@ -44,6 +50,10 @@ MINUTES = {"smoke": 0.5, "quick": 5.0, "full": 30.0}
 GOAL_X_REALTIME = 30.0  # 30-minute survey in <= 60 s
 GOAL_DEMO_S = 180.0
 GOAL_FIRST_FRAME_S = 1.0  # issue 38: start-up (interpreter, imports, set-up) to the first frame processed
+#: the Oculus row: the sonar flown, and minutes of mission per mode (one line of the survey; its log holds ~2 MB a ping)
+OCULUS_MODEL = "oculus-m750d"
+OCULUS_MINUTES = {"smoke": 0.1, "quick": 1.0, "full": 3.0}
+GOAL_OCULUS_X_REALTIME = 30.0  # issue 37: replay >= 30x real time at Oculus rates
 #: summary timings that are not a stage of the mission's data (no x real time): the fixed start-up and the total
 NOT_STAGES = ("start_up_s", "first_frame_s", "total_s")
 
@@ -54,19 +64,36 @@ def _auvlink() -> list[str]:
     return [str(exe)] if exe.is_file() else [sys.executable, "-m", "auvlink"]
 
 
-def scene_text(minutes: float) -> str:
-    """The survey scene: the default scene stretched to ``minutes`` (< 1 minute: one 45 m line)."""
-    from auvlink.sim.scene import default_scene_text, loads_scene
+def oculus_scene_text(minutes: float, model: str = OCULUS_MODEL) -> str:
+    """The survey scene's first line (``minutes`` long) flown with the Oculus ``model``: its data-sheet vertical
+    aperture and its own realistic acoustic profile (:func:`auvlink.sim.scene.with_sonar_model`'s choices)."""
+    from auvlink.sonar import describe
 
+    d = describe(model)
+    text = one_line_scene_text(minutes)
+    text = re.sub(r"(?m)^spread_deg\s*=.*$", f'spread_deg = {d.vertical_aperture_deg}\nmodel = "{model}"', text,
+                  count=1)
+    return text + f'\n[acoustics]\nprofile = "{d.acoustic_profile}"\n'
+
+
+def scene_text(minutes: float) -> str:
+    """The survey scene: the default scene stretched to ``minutes`` (< 1 minute: one line)."""
     if minutes >= 1.0:
         from _sim_log import survey_scene_text
 
         return survey_scene_text(minutes)
+    return one_line_scene_text(minutes)
+
+
+def one_line_scene_text(minutes: float) -> str:
+    """The default scene's survey as one line of ``minutes`` (at least 10 m), no surface phases (no GNSS)."""
+    from auvlink.sim.scene import default_scene_text, loads_scene
+
     text = default_scene_text()
     sv = loads_scene(text).survey
     length = max(10.0, minutes * 60.0 * sv.speed)
     text = re.sub(r"(?m)^line_length\s*=.*$", f"line_length = {length:.3f}", text, count=1)
-    text = text.replace("[gnss]", "[gnss]\nenabled = false")  # smoke: the survey alone (no surface phases)
+    text = text.replace("[gnss]", "[gnss]\nenabled = false")  # the survey alone (no surface phases)
     return re.sub(r"(?m)^lines\s*=.*$", "lines = 1", text, count=1)
 
 
@@ -89,15 +116,17 @@ def _tail(path: Path, n: int = 2000) -> str:
         return ""
 
 
-def cached_log(cache: Path, minutes: float) -> tuple[Path, dict[str, Any] | None]:
-    """The simulated survey log for ``minutes`` (made once, then reused); the sim run, None if cached."""
-    text = scene_text(minutes)
+def cached_log(cache: Path, minutes: float, text: str | None = None, name: str = "survey"
+               ) -> tuple[Path, dict[str, Any] | None]:
+    """The simulated survey log for ``minutes`` (the scene ``text``, default :func:`scene_text`; made once, then
+    reused); the sim run, None if cached."""
+    text = scene_text(minutes) if text is None else text
     key = hashlib.sha1(text.encode()).hexdigest()[:10]
     cache.mkdir(parents=True, exist_ok=True)
-    log = cache / f"survey-{minutes:g}min-{key}.mcap"
+    log = cache / f"{name}-{minutes:g}min-{key}.mcap"
     if log.is_file():
         return log, None
-    scene = cache / f"survey-{minutes:g}min-{key}.toml"
+    scene = cache / f"{name}-{minutes:g}min-{key}.toml"
     scene.write_text(text)
     partial = log.with_suffix(".partial.mcap")  # renamed when whole: a killed run is never reused
     sim = run_child([*_auvlink(), "sim", "--scene", str(scene), "--out", str(partial), "--quiet", "--force"],
@@ -223,6 +252,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     if profile is not None:
         print(f"\nprofile of the slowest stage, {profile['stage']} ({profile['profiled_s']:.2f} s profiled):")
         print(table(profile["top"], ["function", "ncalls", "tottime_s", "cumtime_s"]))
+    oculus = oculus_replay(out_dir, mode, work)
     det_p, det_r = _score(scores, "detection", "precision"), _score(scores, "detection", "recall")
     cls_p, cls_r = _score(scores, "classification", "precision"), _score(scores, "classification", "recall")
     print(f"mission {mission_s:.0f} s ({info['message_count']} messages, {info['size_MB']:.0f} MB log): replay "
@@ -259,10 +289,51 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
         "summary_found": summary.get("summary_found", False), "summary_keys": summary.get("summary_keys", []),
         "goal_x_realtime": GOAL_X_REALTIME, "ok": x_rt >= GOAL_X_REALTIME,
         "seconds_per_30_min": replay["wall_s"] * 1800.0 / mission_s,
-        "demo": demo, "load_average_1min": load, "elapsed_s": time.perf_counter() - t_start,
+        "demo": demo, "oculus": oculus, "load_average_1min": load, "elapsed_s": time.perf_counter() - t_start,
     }
     write_json(out_dir, "e2e", result)
     return result
+
+
+def oculus_replay(out_dir: Path, mode: str, work: Path) -> dict[str, Any]:
+    """Step 6: the Oculus survey line simulated (cached) and replayed; its figures, printed as a table."""
+    minutes = OCULUS_MINUTES[mode]
+    log, sim = cached_log(out_dir / "e2e-cache", minutes, oculus_scene_text(minutes), name="oculus")
+    info = log_info(log, work)
+    replay_dir = out_dir / "e2e-replay-oculus"
+    shutil.rmtree(replay_dir, ignore_errors=True)
+    replay = run_child([*_auvlink(), "replay", str(log), "--out", str(replay_dir), "--fast", "--quiet"],
+                       work / "replay-oculus.log")
+    if replay["rc"] != 0:
+        raise RuntimeError(f"auvlink replay (Oculus) failed (rc {replay['rc']}): {_tail(work / 'replay-oculus.log')}")
+    summary = read_summary(replay_dir)
+    mission_s = float(info["duration_s"] or minutes * 60.0)
+    timings: dict[str, float] = summary.get("timings", {})
+    scores = summary.get("scores", {})
+    rows: list[dict[str, Any]] = []
+    if sim is not None:
+        rows.append({"step": f"auvlink sim, {OCULUS_MODEL} (not cached)", "seconds": sim["wall_s"],
+                     "cpu_s": sim["cpu_s"], "peak_rss_MB": sim["peak_rss_MB"]})
+    rows.append({"step": f"auvlink replay --fast, {OCULUS_MODEL} (whole process)", "seconds": replay["wall_s"],
+                 "cpu_s": replay["cpu_s"], "x_realtime": mission_s / replay["wall_s"],
+                 "peak_rss_MB": replay["peak_rss_MB"]})
+    rows += [{"step": f"  summary timings: {k}", "seconds": v,
+              "x_realtime": mission_s / v if v > 0 and k not in NOT_STAGES else None} for k, v in timings.items()]
+    print(f"\nOculus path: {mission_s:.0f} s of mission, {info['size_MB']:.0f} MB log, "
+          f"{(info.get('frames') or {}).get('sonar', '?')} pings")
+    print(table(rows, ["step", "seconds", "cpu_s", "x_realtime", "peak_rss_MB"]))
+    x_rt = mission_s / replay["wall_s"]
+    return {"model": OCULUS_MODEL, "mission_s": mission_s, "log_MB": info["size_MB"], "log_cached": sim is None,
+            "sim": sim, "replay": replay, "wall_s": replay["wall_s"], "cpu_s": replay["cpu_s"], "x_realtime": x_rt,
+            "x_realtime_cpu": mission_s / replay["cpu_s"] if replay["cpu_s"] > 0 else None,
+            "stage_timings_s": timings, "stage_x_realtime": {k: mission_s / v for k, v in timings.items()
+                                                             if v > 0 and k not in NOT_STAGES},
+            "detection_precision": _score(scores, "detection", "precision"),
+            "detection_recall": _score(scores, "detection", "recall"),
+            "classification_precision": _score(scores, "classification", "precision"),
+            "classification_recall": _score(scores, "classification", "recall"),
+            "detections": summary.get("detections"), "goal_x_realtime": GOAL_OCULUS_X_REALTIME,
+            "ok": x_rt >= GOAL_OCULUS_X_REALTIME}
 
 
 if __name__ == "__main__":
