@@ -120,7 +120,11 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     assert o["objects"] == 4 and o["detections"] >= 1
     correct = sum(r["score"]["correct_1m"] for r in data["surveys"])  # pooled = the surveys' counts summed
     assert o["precision_1m"] == correct / o["detections"] and o["recall_1m"] == correct / 4
-    assert correct >= 3, data["surveys"]  # RESULTS.md: recall 0.97 at 1 m over 120 surveys; one miss in 4 at most
+    # RESULTS.md: under `ideal` detection recall 0.985 and recall with the class 0.94 at 1 m (seed 9841, 132 objects):
+    # at most one of 4 not found, at most two of 4 not found or named wrong (seed 5's low hemisphere on a 0.08 m rough
+    # seabed is held clutter at 0.66, above the shipped threshold)
+    located = sum(r["score"]["located_1m"] for r in data["surveys"])
+    assert located >= 3 and correct >= 2, data["surveys"]
     assert len(o["recall_1m_ci95"]) == 2 and "95 % interval" in interval_line(res)
     assert "roughness" in text_table(res)
     assert_plot_drawn(tmp_path / "surveys.png")
