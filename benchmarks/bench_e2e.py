@@ -200,6 +200,28 @@ def _score(scores: dict[str, float], *words: str) -> float | None:
     return None
 
 
+def replay_child(log: Path, replay_dir: Path, log_file: Path, quiet: bool = True) -> dict[str, Any]:
+    """``auvlink replay LOG --out DIR --fast`` (``--quiet``) in a child process, DIR emptied first; its run
+    (:func:`run_child`), raising when it failed."""
+    shutil.rmtree(replay_dir, ignore_errors=True)
+    cmd = [*_auvlink(), "replay", str(log), "--out", str(replay_dir), "--fast", *(["--quiet"] if quiet else [])]
+    replay = run_child(cmd, log_file)
+    if replay["rc"] != 0:
+        raise RuntimeError(f"auvlink replay {log.name} failed (rc {replay['rc']}): {_tail(log_file)}")
+    return replay
+
+
+def stage_rows(timings: dict[str, float], mission_s: float) -> list[dict[str, Any]]:
+    """Table rows of the summary's timings, with x real time per stage (mission s / stage s)."""
+    return [{"step": f"  summary timings: {k}", "seconds": v,
+             "x_realtime": mission_s / v if v > 0 and k not in NOT_STAGES else None} for k, v in timings.items()]
+
+
+def stage_x_realtime(timings: dict[str, float], mission_s: float) -> dict[str, float]:
+    """x real time of each stage of the summary's timings (the fixed start-up and the total left out)."""
+    return {k: mission_s / v for k, v in timings.items() if v > 0 and k not in NOT_STAGES}
+
+
 def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
     mode = "smoke" if smoke() else "quick" if quick else "full"
     minutes = MINUTES[mode]
@@ -210,14 +232,9 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     log, sim = cached_log(out_dir / "e2e-cache", minutes)
     info = log_info(log, work)
     replay_dir = out_dir / "e2e-replay"
-    shutil.rmtree(replay_dir, ignore_errors=True)
     help_text = subprocess.run([*_auvlink(), "replay", "--help"], capture_output=True, text=True,
                                check=False).stdout
-    cmd = [*_auvlink(), "replay", str(log), "--out", str(replay_dir), "--fast"]
-    cmd += ["--quiet"] if "--quiet" in help_text else []
-    replay = run_child(cmd, work / "replay.log")
-    if replay["rc"] != 0:
-        raise RuntimeError(f"auvlink replay failed (rc {replay['rc']}): {_tail(work / 'replay.log')}")
+    replay = replay_child(log, replay_dir, work / "replay.log", quiet="--quiet" in help_text)
     summary = read_summary(replay_dir)
     mission_s = float(info["duration_s"] or minutes * 60.0)
     x_rt = mission_s / replay["wall_s"]
@@ -232,9 +249,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     rows.append({"step": "auvlink log info", "seconds": info["wall_s"]})
     rows.append({"step": "auvlink replay --fast (whole process)", "seconds": replay["wall_s"],
                  "cpu_s": replay["cpu_s"], "x_realtime": x_rt, "peak_rss_MB": replay["peak_rss_MB"]})
-    rows += [{"step": f"  summary timings: {k}", "seconds": v,
-              "x_realtime": mission_s / v if v > 0 and k not in NOT_STAGES else None}  # per stage: mission s / stage s
-             for k, v in timings.items()]
+    rows += stage_rows(timings, mission_s)
     total = timings.get("total_s")
     outside = replay["wall_s"] - total if total is not None else None
     if outside is not None:  # what the pipeline's own timings do not cover
@@ -278,8 +293,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
         "cpu_s": replay["cpu_s"], "x_realtime_cpu": mission_s / replay["cpu_s"] if replay["cpu_s"] > 0 else None,
         "replay_decode_s": decode_s, "outside_pipeline_timings_s": outside,
         "replay_decode_x_realtime": mission_s / decode_s if decode_s else None,
-        "stage_timings_s": timings, "stage_x_realtime": {k: mission_s / v for k, v in timings.items()
-                                                         if v > 0 and k not in NOT_STAGES},
+        "stage_timings_s": timings, "stage_x_realtime": stage_x_realtime(timings, mission_s),
         "first_frame_s": timings.get("first_frame_s"), "goal_first_frame_s": GOAL_FIRST_FRAME_S,
         "slowest_stage_profile": profile, "slowest_stage_top": profile["top"] if profile else [],
         "scores": scores,
@@ -301,11 +315,7 @@ def oculus_replay(out_dir: Path, mode: str, work: Path) -> dict[str, Any]:
     log, sim = cached_log(out_dir / "e2e-cache", minutes, oculus_scene_text(minutes), name="oculus")
     info = log_info(log, work)
     replay_dir = out_dir / "e2e-replay-oculus"
-    shutil.rmtree(replay_dir, ignore_errors=True)
-    replay = run_child([*_auvlink(), "replay", str(log), "--out", str(replay_dir), "--fast", "--quiet"],
-                       work / "replay-oculus.log")
-    if replay["rc"] != 0:
-        raise RuntimeError(f"auvlink replay (Oculus) failed (rc {replay['rc']}): {_tail(work / 'replay-oculus.log')}")
+    replay = replay_child(log, replay_dir, work / "replay-oculus.log")
     summary = read_summary(replay_dir)
     mission_s = float(info["duration_s"] or minutes * 60.0)
     timings: dict[str, float] = summary.get("timings", {})
@@ -317,8 +327,7 @@ def oculus_replay(out_dir: Path, mode: str, work: Path) -> dict[str, Any]:
     rows.append({"step": f"auvlink replay --fast, {OCULUS_MODEL} (whole process)", "seconds": replay["wall_s"],
                  "cpu_s": replay["cpu_s"], "x_realtime": mission_s / replay["wall_s"],
                  "peak_rss_MB": replay["peak_rss_MB"]})
-    rows += [{"step": f"  summary timings: {k}", "seconds": v,
-              "x_realtime": mission_s / v if v > 0 and k not in NOT_STAGES else None} for k, v in timings.items()]
+    rows += stage_rows(timings, mission_s)
     print(f"\nOculus path: {mission_s:.0f} s of mission, {info['size_MB']:.0f} MB log, "
           f"{(info.get('frames') or {}).get('sonar', '?')} pings")
     print(table(rows, ["step", "seconds", "cpu_s", "x_realtime", "peak_rss_MB"]))
@@ -326,8 +335,7 @@ def oculus_replay(out_dir: Path, mode: str, work: Path) -> dict[str, Any]:
     return {"model": OCULUS_MODEL, "mission_s": mission_s, "log_MB": info["size_MB"], "log_cached": sim is None,
             "sim": sim, "replay": replay, "wall_s": replay["wall_s"], "cpu_s": replay["cpu_s"], "x_realtime": x_rt,
             "x_realtime_cpu": mission_s / replay["cpu_s"] if replay["cpu_s"] > 0 else None,
-            "stage_timings_s": timings, "stage_x_realtime": {k: mission_s / v for k, v in timings.items()
-                                                             if v > 0 and k not in NOT_STAGES},
+            "stage_timings_s": timings, "stage_x_realtime": stage_x_realtime(timings, mission_s),
             "detection_precision": _score(scores, "detection", "precision"),
             "detection_recall": _score(scores, "detection", "recall"),
             "classification_precision": _score(scores, "classification", "precision"),

@@ -182,8 +182,7 @@ class Engine:
             return 0
         sel, ts = sel[good], times[sel[good]]
         # recon's sampling (recon.image_pooling), each frame pooled before the stack: no copy of the fine frames
-        pool = self.pooling
-        stack = np.stack([imgs[k] if pool.identity else pool.apply(imgs[k][None])[0] for k in good])
+        stack = np.stack([self.pooling.apply(imgs[k][None])[0] for k in good])
         rec.add_frames(ts, stack)
         if self.hooks.on_frames is not None:
             self.hooks.on_frames(g, ts, stack, rec.last_returns)
