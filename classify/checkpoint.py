@@ -101,7 +101,8 @@ def write_inference_export(path: Path, models: Sequence[PointNet], class_names: 
         "n_points": int(n_points), "scale_m": float(synthesis.get("scale_m", 0.0) or 0.0),
         "z_ref": str(synthesis.get("z_ref") or "mean"),
         "clutter_threshold": None if threshold is None else float(threshold),
-        "input_transform": cfg.input_transform, "feature_transform": cfg.feature_transform, "members": len(folded)})
+        "input_transform": cfg.input_transform, "feature_transform": cfg.feature_transform, "members": len(folded),
+        "shadow_tops_m": calibration.get("shadow_tops_m")})
     return write_export(export_path(path), meta, layers)
 
 

@@ -100,6 +100,9 @@ class CalibrationMeta(BaseModel):
     n_objects: Annotated[Integer, Field(ge=0)] | None = None
     n_clutter: Annotated[Integer, Field(ge=0)] | None = None
     clutter_threshold_source: str | None = None
+    #: m: the top height of each class of solid shape (classify.shadow_height), and where they came from
+    shadow_tops_m: dict[ClassName, Annotated[Number, Field(gt=0.0, le=MAX_SCALE_M)]] | None = None
+    shadow_tops_source: str | None = None
 
 
 class CheckpointMeta(BaseModel):

@@ -11,7 +11,7 @@ views, clutter rule).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +20,7 @@ import numpy.typing as npt
 from classify.errors import InvalidCloudError
 from classify.labels import CLUTTER
 from classify.normalize import normalize_cloud
+from classify.shadow_height import weighed
 
 DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "pointnet_default.pt"
 #: the clutter threshold of a checkpoint whose calibration has none
@@ -66,7 +67,8 @@ class CloudClassifier:
     backend = "none"
 
     def __init__(self, class_names: Sequence[str], n_points: int, scale_m: float, z_ref: str,
-                 clutter_threshold: float | None, yaw_views: int = YAW_VIEWS) -> None:
+                 clutter_threshold: float | None, yaw_views: int = YAW_VIEWS,
+                 shadow_tops: Mapping[str, float] | None = None) -> None:
         if yaw_views < 1:
             raise ValueError(f"yaw_views must be >= 1, got {yaw_views}")
         self.yaw_views = int(yaw_views)
@@ -77,6 +79,9 @@ class CloudClassifier:
         #: index of ``clutter`` among the outputs (None: a model without it)
         self.clutter_index = self.class_names.index(CLUTTER) if CLUTTER in self.class_names else None
         self.clutter_threshold = DEFAULT_CLUTTER_THRESHOLD if clutter_threshold is None else float(clutter_threshold)
+        #: m: the top height of each class of solid shape, weighed against an object's shadow height in
+        #: :meth:`decide` (:mod:`classify.shadow_height`; None or empty: never)
+        self.shadow_tops = dict(shadow_tops) if shadow_tops else None
 
     @property
     def object_classes(self) -> tuple[str, ...]:
@@ -131,20 +136,24 @@ class CloudClassifier:
             out[i:i + len(chunk)] = self.batch_probabilities(np.stack([pad_by_repeating(p, n) for p in chunk]))
         return out
 
-    def decide(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True
-               ) -> list[tuple[str, float]]:
+    def decide(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True,
+               shadow_heights: Sequence[float] | None = None) -> list[tuple[str, float]]:
         """``(class_name, score)`` per row of probabilities ``(n, k)``: ``clutter`` with its probability where that
         reaches :attr:`clutter_threshold` (and ``allow_clutter``, per row or for all), else the most probable
-        object class with its probability."""
+        object class with its probability, weighed by the object's ``shadow_heights`` (m, one per row, NaN: none;
+        :func:`classify.shadow_height.weighed` with :attr:`shadow_tops`) when given."""
         p = np.asarray(prob, dtype=np.float64).reshape(-1, len(self.class_names))
         allow = np.broadcast_to(np.asarray(allow_clutter, dtype=bool), (p.shape[0],))
         obj = p.copy()
+        if self.clutter_index is not None:
+            obj[:, self.clutter_index] = 0.0
+        obj = weighed(obj, shadow_heights, self.class_names, self.shadow_tops)
         clutter = np.zeros(p.shape[0], bool)
         if self.clutter_index is not None:
             clutter = allow & (p[:, self.clutter_index] >= self.clutter_threshold)
             obj[:, self.clutter_index] = -1.0
         ks = np.where(clutter, self.clutter_index if self.clutter_index is not None else 0, obj.argmax(axis=1))
-        return [(self.class_names[int(k)], float(p[i, k])) for i, k in enumerate(ks)]
+        return [(self.class_names[int(k)], float(p[i, k] if clutter[i] else obj[i, k])) for i, k in enumerate(ks)]
 
     def classify(self, points: npt.ArrayLike, seabed_depth: float | None = None,
                  allow_clutter: bool = True) -> tuple[str, float]:

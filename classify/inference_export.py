@@ -5,7 +5,8 @@ The file is a NumPy ``.npz`` (read with ``allow_pickle=False``: arrays only, no 
 * ``meta``: one JSON text (:class:`ExportMeta`): :data:`FORMAT`, the SHA-256 of the checkpoint file it was made
   from (``source_sha256``), the class names, points per cloud, the normalization (``scale_m`` m, ``z_ref``), the
   calibrated ``clutter_threshold`` (null: the default), the architecture switches (``input_transform``,
-  ``feature_transform``) and the number of ensemble members;
+  ``feature_transform``), the number of ensemble members and the solid classes' top heights (``shadow_tops_m``,
+  :mod:`classify.shadow_height`; absent: none);
 * per linear layer of :class:`classify.pointnet.PointNet` (its ``state_dict`` name less ``.linear``/``.weight``,
   e.g. ``mlp2.2``, ``feature_tnet.fc.0``, ``classifier``): ``NAME.weight`` ``(members, out, in)`` and
   ``NAME.bias`` ``(members, out)`` float32, every batch norm folded into its layer
@@ -58,6 +59,8 @@ class ExportMeta(BaseModel):
     input_transform: bool
     feature_transform: bool
     members: Annotated[int, Field(ge=1, le=MAX_MEMBERS)]
+    #: m: the top height of each class of solid shape (classify.shadow_height); absent: none
+    shadow_tops_m: dict[str, Annotated[float, Field(gt=0.0, le=100.0)]] | None = None
 
 
 @dataclass(frozen=True)

@@ -163,7 +163,8 @@ class NumpyClassifier(CloudClassifier):
     def __init__(self, export: InferenceExport, yaw_views: int = YAW_VIEWS, source: Path | None = None,
                  threads: int | None = None) -> None:
         m = export.meta
-        super().__init__(m.class_names, m.n_points, m.scale_m, m.z_ref, m.clutter_threshold, yaw_views)
+        super().__init__(m.class_names, m.n_points, m.scale_m, m.z_ref, m.clutter_threshold, yaw_views,
+                         m.shadow_tops_m)
         self.export = export
         self.source = source
         self.threads = threads

@@ -26,7 +26,8 @@ Recon against the simulator's ground truth is evaluation, in the application lay
   :mod:`recon.cluster_index`,
   :mod:`recon.fusion`: clustering across passes, :mod:`recon.arc_consensus` (where the arcs of a return's frames
   meet), :mod:`recon.front_slope` and :mod:`recon.far_side`: the final objects' points and centroids,
-  :mod:`recon.shape`: footprints);
+  :mod:`recon.shape`: footprints), :mod:`recon.shadow` (each final object's top height from its acoustic shadows
+  in the seabed band);
 - :mod:`recon.image_pooling` (frames finer than recon's sampling pooled to it), :mod:`recon.errors`,
   :mod:`recon.ply` (PLY output), :mod:`recon.synthetic` (frames from analytic shapes, for
   tests and benchmarks).

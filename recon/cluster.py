@@ -62,6 +62,7 @@ class DetectedObject:
     extra: F64 = field(repr=False, default_factory=lambda: np.zeros((0, 0)))  # per-point columns
     seabed_depth: float = float("nan")  # m, NED: the seabed under the object (recon's model of the poll)
     passes: tuple[tuple[float, float], ...] = ()  # time spans (s) of the passes fused into it (recon.fusion)
+    shadow_height: float = float("nan")  # m: its top over the seabed from its acoustic shadows (recon.shadow)
 
     @property
     def size(self) -> F64:

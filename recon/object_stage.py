@@ -50,6 +50,8 @@ class ObjectStage:
         self.seabed_removed = 0
         #: an object's extra elevation (rad) below the fan's edge from its points (recon.pattern_fall); None: none
         self.below_edge: Callable[[F64], float] | None = None
+        #: an object's top height over the seabed (m) from its points' footprint (recon.shadow); None: not measured
+        self.shadow_height: Callable[[F64], float] | None = None
 
     def add(self, points: F64, times: F64, arcs: F64) -> None:
         """Points (N, 3), their frame times (N,) and range arcs (N, 10, or (N, 0) without the front-slope
@@ -145,6 +147,12 @@ class ObjectStage:
                                seabed_depth=o.seabed_depth))
         return out
 
+    def _measured(self, objects: list[DetectedObject]) -> list[DetectedObject]:
+        """Final objects with the top height their shadows give (:attr:`shadow_height`)."""
+        if self.shadow_height is None:
+            return objects
+        return [replace(o, shadow_height=self.shadow_height(o.points)) for o in objects]
+
     def _below_edge(self, o: DetectedObject) -> tuple[F64, F64 | None]:
         """The object's points re-placed on their arcs below the elevation each was placed at, and those elevations
         (rad): where the arcs of their frames meet (``config.arc_consensus``, :mod:`recon.arc_consensus`), else by
@@ -168,7 +176,7 @@ class ObjectStage:
             self._stream = StreamingClusterer(self.config.cluster)
         p, t, e = self.take_pending()
         self._stream.add(p, t, e)
-        out = self._finalize(self._on_seabed(self._stream.poll(vehicle_position, t_now)))
+        out = self._measured(self._finalize(self._on_seabed(self._stream.poll(vehicle_position, t_now))))
         self.objects.extend(out)
         return out
 
@@ -180,7 +188,7 @@ class ObjectStage:
         else:
             self._stream.add(p, t, e)
             out = self._stream.flush()
-        out = self._finalize(self._on_seabed(out))
+        out = self._measured(self._finalize(self._on_seabed(out)))
         self.objects.extend(out)
         return out
 

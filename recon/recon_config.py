@@ -42,6 +42,9 @@ class ReconConfig:
     # successive frames meet (recon.arc_consensus: a fixed reflector seen through the beam's energy beyond the edge);
     # off by default until the classifier's synthesis places points alike (a classifier trained on edge-placed clouds)
     arc_consensus: bool = False
+    # with calibrate: each final object's top height over the seabed measured from its acoustic shadows in the seabed
+    # band (recon.shadow: two ranges along a beam, independent of the beam pattern), DetectedObject.shadow_height
+    shadow_height: bool = True
     # two-way sidelobe level (dB re the main lobe) below which a return in the row of a stronger one is its sidelobe
     # (recon.sidelobe): the highest of the supported sonars' (DIDSON's lens, issue 36: -25 dB; ARIS -30 dB)
     sidelobe_db: float = -25.0

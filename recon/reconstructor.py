@@ -13,7 +13,8 @@ and ``altitude_at``). A batch of frames passes recon's stages once each, in orde
 4. **seabed** (:mod:`recon.seabed_evidence`): the DVL's seabed points pulled from the pose source, the seabed
    returns and the highlight points into the seabed memory (:mod:`recon.seabed_memory`);
 5. **clusters** (:mod:`recon.object_stage`): the points wait for :meth:`Reconstructor.poll` (streaming) or
-   :meth:`Reconstructor.finish` (batch), which remove the seabed, cluster and finalize the objects.
+   :meth:`Reconstructor.finish` (batch), which remove the seabed, cluster and finalize the objects, each with its
+   top's height from the acoustic shadows the frames showed beyond the onset (:mod:`recon.shadow`).
 
 Pure computation: no ports, no files.
 """
@@ -51,6 +52,7 @@ from recon.seabed_band import SEABED_BAND
 from recon.seabed_evidence import add_seabed_returns, initial_dvl_points, pull_dvl_points
 from recon.seabed_memory import SeabedMemory
 from recon.seabed_texture import SEABED_TEXTURE, TexturedSeabed
+from recon.shadow import ShadowTops
 from recon.sidelobe import margin_levels, sidelobe_thresholds
 from recon.sonar_geometry import SonarGeometry
 
@@ -80,6 +82,7 @@ class Reconstructor:
         self.beam_edge = BeamEdge(0.5 * geometry.spread)
         self.pattern_fall = PatternFall(WINDOW_FRAMES, MIN_FRAMES)  # the pattern beyond the edge (recon.pattern_fall)
         self.mosaic = EchoMosaic()  # the seabed band's echo over the seabed's (recon.echo_mosaic)
+        self.shadows = ShadowTops()  # the tops of the objects' acoustic shadows (recon.shadow)
         self.poses = poses
         self.config = config or ReconConfig()
         self.dvl_max_pitch = dvl_max_pitch
@@ -88,6 +91,8 @@ class Reconstructor:
         self._objects = ObjectStage(self.config, self.memory, geometry.spread)
         if self.config.calibrate and self.config.below_edge:
             self._objects.below_edge = self._below_edge
+        if self.config.calibrate and self.config.shadow_height:
+            self._objects.shadow_height = self.shadows.height
         self.frames = 0
         self.frames_with_points = 0
         #: frames with a band bright across most of the fan before the seabed (interference; no points from it)
@@ -132,6 +137,8 @@ class Reconstructor:
         onsets = self._onsets.run(self.frames, imgs, pos, rot, alt, floor)  # 1. onset
         if planes is not None and cfg.below_edge:
             self.mosaic.add(imgs, g, onsets.onset, pos, rot, *planes)
+        if planes is not None and cfg.shadow_height:
+            self.shadows.add(imgs, g, onsets.onset, pos, rot, *planes)
         hc = cfg.highlight
         limits = onset_rows(g, onsets.onset, hc.margin_m)
         if cfg.calibrate and not np.isfinite(floor):

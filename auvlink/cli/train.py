@@ -8,6 +8,11 @@ weights and what inference reads, so that replay, live and batch runs classify w
 :mod:`classify.inference_export`). An existing ``--out`` (or its ``.npz``) is replaced only with ``--force``
 (checked before any work); each file is written under a temporary name and renamed.
 
+``auvlink train --shadow-tops MODEL.pt --out OUT.pt`` trains nothing: it writes a copy of the checkpoint whose
+calibration holds the top heights of the catalogue's solid classes (:mod:`classify.training.solid_tops`), what
+classification weighs each object's shadow height against (:mod:`classify.shadow_height`); training stores them
+itself.
+
 ``auvlink train --export-inference MODEL.pt`` trains nothing: it writes the inference export ``MODEL.npz`` of an
 existing checkpoint (one saved before exports were written, or whose export is stale: made from another file of
 that name). An existing ``MODEL.npz`` is replaced only with ``--force``.
@@ -40,6 +45,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--export-inference", type=Path, default=None, metavar="MODEL.pt",
                    help="train nothing: write the inference export MODEL.npz of the existing checkpoint MODEL.pt "
                         "(an existing MODEL.npz only with --force)")
+    p.add_argument("--shadow-tops", type=Path, default=None, metavar="MODEL.pt",
+                   help="train nothing: write a copy of the checkpoint MODEL.pt to --out whose calibration holds the "
+                        "top heights of the catalogue's solid classes (weighed against objects' shadow heights)")
     p.add_argument("--out", type=Path, default=Path("pointnet.pt"), help="checkpoint to write (default pointnet.pt)")
     p.add_argument("--force", action="store_true", help="replace an existing --out")
     p.add_argument("--config", type=Path, default=None,
@@ -69,6 +77,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.export_inference is not None:
         return _export(args.export_inference, args.force)
+    if args.shadow_tops is not None:
+        return _shadow_tops(args.shadow_tops, args.out, args.force)
     check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
     check_output_file(export_path(args.out), force=args.force, inputs=[args.config], what="inference export")
     if args.calibrate_surveys is not None:
@@ -116,6 +126,22 @@ def _calibrate(args: argparse.Namespace, model: Path) -> None:
     print(f"clutter threshold on {cs['surveys']} calibration surveys (seed {seed}; 1 m, class must match):")
     print(table(cs["rows"], cs["model_threshold"], cs["best"]))
     print(f"clutter threshold {cs['model_threshold']:.2f} (held-out clouds) -> {cs['best']:.2f} (surveys)")
+
+
+def _shadow_tops(checkpoint: Path, out: Path, force: bool) -> int:
+    """Write ``checkpoint``'s copy with the solid classes' top heights to ``out`` (see the module doc)."""
+    if not checkpoint.is_file():
+        raise AuvlinkError(f"--shadow-tops {checkpoint}: no such checkpoint")
+    check_output_file(out, force=force, inputs=[checkpoint], option="--out", what="checkpoint")
+    check_output_file(export_path(out), force=force, option="--out", what="inference export")
+    from classify.training.dataset import catalog_meshes  # lazy: PyTorch and the meshes load only for this command
+    from classify.training.solid_tops import write_solid_tops
+
+    path = write_solid_tops(checkpoint, out, catalog_meshes()[1])
+    from classify.checkpoint import load_checkpoint
+
+    print(f"checkpoint: {path}; solid classes' tops (m): {load_checkpoint(path).calibration['shadow_tops_m']}")
+    return 0
 
 
 def _export(checkpoint: Path, force: bool) -> int:

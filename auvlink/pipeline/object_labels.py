@@ -27,6 +27,7 @@ intra-op threads.
 from __future__ import annotations
 
 import hashlib
+import math
 from collections.abc import Container, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -136,7 +137,8 @@ class ObjectLabeller:
         clf = self.classifier
         assert clf is not None
         prob = self.probabilities(clf, objects)
-        labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects])
+        labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects],
+                            shadow_heights=[float(getattr(o, "shadow_height", math.nan)) for o in objects])
         if clf.clutter_index is not None:
             self.scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index], strict=True)]
         for o, lab in zip(objects, labels, strict=True):
@@ -175,4 +177,5 @@ def make_detection(o: DetectedObject, class_name: str, score: float, shift: npt.
                      t_last=epoch + float(o.t_last), points=o.points + shift if np.any(shift) else o.points,
                      times=epoch + np.asarray(o.times, dtype=np.float64),
                      passes=tuple((epoch + a, epoch + b) for a, b in getattr(o, "passes", ())),
-                     seabed_depth=float(o.seabed_depth) if np.isfinite(o.seabed_depth) else None)
+                     seabed_depth=float(o.seabed_depth) if np.isfinite(o.seabed_depth) else None,
+                     shadow_height=float(o.shadow_height) if np.isfinite(o.shadow_height) else None)

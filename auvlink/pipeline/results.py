@@ -41,6 +41,7 @@ class Detection:
     drift_correction_ne: tuple[float, float] = (0.0, 0.0)  # m, applied at the end (closure error share)
     passes: tuple[tuple[float, float], ...] = ()  # time spans (s since the epoch) of the passes that saw it
     seabed_depth: float | None = None  # m, NED: the seabed under it (recon's model of the poll)
+    shadow_height: float | None = None  # m: its top over the seabed from its acoustic shadows (recon.shadow)
 
     @property
     def box(self) -> OrientedBox:
@@ -58,7 +59,8 @@ class Detection:
                "width_m": round(box.width_m, 4),
                "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame,
                "passes": [list(p) for p in self.passes],
-               "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, 4)}
+               "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, 4),
+               "shadow_height_m": None if self.shadow_height is None else round(self.shadow_height, 3)}
         if self.latitude is not None and self.longitude is not None:
             out["lat"], out["lon"] = round(self.latitude, 9), round(self.longitude, 9)
             out["drift_correction_ne"] = [round(v, 4) for v in self.drift_correction_ne]

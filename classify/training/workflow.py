@@ -28,6 +28,7 @@ from classify.labels import CLUTTER, with_clutter
 from classify.training.config import TrainSettings
 from classify.training.dataset import CloudSet, MeshSource, catalog_meshes, heldout_settings, synthesize_set
 from classify.training.evaluate import EvalReport
+from classify.training.solid_tops import SHADOW_TOPS_SOURCE, solid_tops
 from classify.training.synthesis import SynthesisSettings
 from classify.training.train import TrainResult, train
 
@@ -106,7 +107,8 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
                                settings.train.to_dict(), metrics, calibration, members)
 
     path = save()
-    calibration = calibrate_clutter(Classifier.load(path), data.subset(result.val_idx))
+    calibration = {**calibrate_clutter(Classifier.load(path), data.subset(result.val_idx)),
+                   "shadow_tops_m": solid_tops(names, mesh_for), "shadow_tops_source": SHADOW_TOPS_SOURCE}
     metrics["calibration"] = calibration
     path = save(calibration)
     clf = Classifier.load(path)  # as calibrated: what inference loads
