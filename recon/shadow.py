@@ -73,10 +73,11 @@ BACK_M = 0.06
 END_MARGIN_M = 0.2
 #: m the object's points' box is widened by for its shadow tops (the cluster's placement scatter)
 FOOTPRINT_M = 0.25
-#: shadow tops an object's height needs, and the quantile of their heights taken as the top (the rays that graze
-#: a rounded top off its crest read lower)
+#: shadow tops an object's height needs, and the quantile of their heights taken as the top: readings fall below a
+#: top far more often than above it (a ray grazing a rounded top off its crest reads lower; a long shadow's end is
+#: read early where the reference frames held the object's own shadow), few are speckle above it
 MIN_TOPS = 8
-TOP_QUANTILE = 0.75
+TOP_QUANTILE = 0.9
 #: m of path the shadow tops are kept for (an object is finalized after the vehicle passed it; 100 m covers the
 #: slowest finalization of recon.cluster_stream)
 KEEP_M = 100.0
