@@ -35,7 +35,6 @@ from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from recon.beam_edge import plane_elevation, plane_terms
-from recon.exact_stats import median_u8
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
@@ -50,6 +49,9 @@ SAMPLE_M = 0.5
 REFERENCE_M = (2.0, 6.0)
 #: frames a reference needs (the median of fewer follows a passing object)
 MIN_REFERENCE = 5
+#: m of range per row of the reference: the seabed band's level, a median over frames at other positions, changes
+#: over metres of range (pattern, grazing angle, TVG), not within 0.1 m
+REFERENCE_ROW_M = 0.1
 #: m of range each column is averaged over before the search (speckle: the shortest shadow, DARK_M, keeps its
 #: start and end to a few cm)
 SMOOTH_M = 0.1
@@ -83,6 +85,17 @@ TOP_QUANTILE = 0.9
 KEEP_M = 100.0
 
 
+def _levels(ref: F32, on: NDArray[np.int64]) -> tuple[float, float] | None:
+    """The water's level (the reference's median before each beam's onset row ``on``) and the seabed's (beyond it),
+    grey levels; None without 8 rows of each or without a seabed band (4 grey levels over the water: 1 dB of a
+    60 dB display)."""
+    before = np.arange(ref.shape[0])[:, None] < on[None, :]
+    if before.sum() < 8 * ref.shape[1] or (~before).sum() < 8 * ref.shape[1]:
+        return None
+    water, seabed = float(np.median(ref[before])), float(np.median(ref[~before]))
+    return (water, seabed) if seabed > water + 4.0 else None
+
+
 def _runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
     """(rows, beams): where ``mask`` holds over the ``n`` rows from each row on."""
     c = np.zeros((mask.shape[0] + 1, mask.shape[1]), np.int32)
@@ -110,7 +123,8 @@ class ShadowTops:
         """Take frames (F, bins, beams) with each beam's onset range (F, beams, m), the poses and the seabed plane
         each frame was predicted with (``point``, unit ``normal`` into the water, (F, 3) each)."""
         smooth = max(1, round(SMOOTH_M / geometry.bin_size))
-        dec = max(1, smooth // 2)
+        dec = max(1, round(REFERENCE_ROW_M / geometry.bin_size))
+        gap = round(ECHO_GAP_M / geometry.bin_size) + smooth
         for f in range(images.shape[0]):
             xy = pos[f, :2]
             if self._last_xy is not None:
@@ -119,18 +133,24 @@ class ShadowTops:
             if self._path < self._last_sample + SAMPLE_M:
                 continue
             self._last_sample = self._path
-            sm = uniform_filter1d(images[f].astype(np.float32), smooth, axis=0, mode="nearest")
-            n_dec = sm.shape[0] // dec
-            small = sm[: n_dec * dec].reshape(n_dec, dec, -1).mean(axis=1)
+            n_bins = images.shape[1]
+            n_dec = n_bins // dec
+            small = images[f, : n_dec * dec].reshape(n_dec, dec, -1).mean(axis=1, dtype=np.float32)
             ref = self._reference(n_dec, small.shape[1])
-            self._ring.append((self._path, np.clip(np.rint(small), 0, 255).astype(np.uint8)))
+            self._ring.append((self._path, np.rint(small).astype(np.uint8)))
             self._ring = [e for e in self._ring if e[0] >= self._path - REFERENCE_M[1] - SAMPLE_M]
             if ref is None:
                 continue
             self.frames_read += 1
-            full = np.repeat(ref, dec, axis=0)
+            on = np.clip(np.ceil(geometry.range_to_row(onset[f])), 0, n_bins).astype(np.int64)  # (beams,)
+            levels = _levels(ref, on // dec)
+            if levels is None:
+                continue
+            row0 = max(0, int(on.min()) - gap)  # the rows an object's echo and shadow beyond the onset can hold
+            sm = uniform_filter1d(images[f, row0:].astype(np.float32), smooth, axis=0, mode="nearest")
+            full = np.repeat(ref, dec, axis=0)[row0:]
             full = np.concatenate([full, np.repeat(full[-1:], sm.shape[0] - full.shape[0], axis=0)])
-            tops = self._frame_tops(sm, full, geometry, onset[f], pos[f], rot[f], point[f], normal[f])
+            tops = self._frame_tops(sm, full, row0, on, levels, geometry, pos[f], rot[f], point[f], normal[f])
             if tops.shape[0]:
                 self.shadows += tops.shape[0]
                 self._tops.append(np.column_stack([tops, np.full(tops.shape[0], self._path)]))
@@ -144,21 +164,19 @@ class ShadowTops:
         sel = [img for p, img in self._ring if lo <= p <= hi and img.shape == (rows, beams)]
         if len(sel) < MIN_REFERENCE:
             return None
-        return median_u8(np.stack(sel, axis=-1)).astype(np.float32)
+        k = len(sel)
+        part = np.partition(np.stack(sel), [(k - 1) // 2, k // 2], axis=0)
+        return np.asarray(0.5 * (part[(k - 1) // 2].astype(np.float32) + part[k // 2]), np.float32)
 
-    def _frame_tops(self, img: F32, ref: F32, g: SonarGeometry, onset: F64, pos: F64, rot: Rotation, point: F64,
-                    normal: F64) -> F64:
-        """(n, 3) shadow tops of one frame (smoothed image and reference (bins, beams)): north, east, height."""
+    def _frame_tops(self, img: F32, ref: F32, row0: int, on: NDArray[np.int64], levels: tuple[float, float],
+                    g: SonarGeometry, pos: F64, rot: Rotation, point: F64, normal: F64) -> F64:
+        """(n, 3) shadow tops of one frame: north, east, height. ``img`` and ``ref``: the smoothed image and the
+        reference (rows from ``row0``, beams), ``on`` each beam's onset row, ``levels`` the water's and the
+        seabed's level (:func:`_levels`)."""
         n_rows = img.shape[0]
         rows = np.arange(n_rows)
-        on = np.clip(np.ceil(g.range_to_row(onset)), 0, n_rows).astype(np.int64)  # (beams,)
-        before = rows[:, None] < on[None, :]
-        if before.sum() < 8 * img.shape[1] or (~before).sum() < 8 * img.shape[1]:
-            return np.zeros((0, 3))
-        water = float(np.median(ref[before]))
-        seabed = float(np.median(ref[~before]))
-        if not seabed > water + 4.0:  # no seabed band to see a shadow in (4 grey levels: a 60 dB display's 1 dB)
-            return np.zeros((0, 3))
+        before = (rows + row0)[:, None] < on[None, :]
+        water, seabed = levels
         depth = ref - water
         band = ~before & (depth >= BAND_FRACTION * (seabed - water))
         diff = img - ref
@@ -186,7 +204,7 @@ class ShadowTops:
         r0, b0, r1 = r0[first], b0[first], r1[first]
         if r0.size == 0:
             return np.zeros((0, 3))
-        r_top, r_s = g.ranges[r0], g.ranges[r1]
+        r_top, r_s = g.ranges[r0 + row0], g.ranges[r1 + row0]
         az = g.azimuths[b0]
         height, a, b = plane_terms(g, rot, pos[None], point[None], normal[None], az)
         k = height[0] / r_s
