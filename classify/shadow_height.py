@@ -9,7 +9,8 @@ height alone, which the cloud's own heights no longer tell apart under such beam
 The classifier's probabilities are weighed by how well each class's top height explains the measured one
 (:func:`height_weights`): a class whose shape is solid (its checkpoint's ``shadow_tops_m``: every class whose
 silhouette fills its outline, :func:`classify.training.solid_tops.solid_tops`) gets
-``exp(-((h - top) / sigma)^2 / 2)``, ``sigma`` = :data:`SIGMA_M` + :data:`SIGMA_FRACTION` x top; every other class
+``exp(-((h - top) / sigma)^2 / 2)``, ``sigma`` = :data:`SIGMA_M` + :data:`SIGMA_FRACTION` x top, at least
+:data:`FLOOR` (a height can be wrong: a confident network keeps its class); every other class
 (open frames the sonar sees through, whose shadow is not their top; ``clutter``) keeps weight 1. The weights peak
 at 1, so a height can only take weight from the classes it contradicts, never raise a solid class over an open one.
 No height (NaN: the object's shadows not seen), no weighing; a weighed row keeps its total (a score stays
@@ -30,6 +31,10 @@ SIGMA_M = 0.05
 #: of the top's height: rays that graze a rounded top off its crest read lower, and a long shadow's end is read
 #: against a reference its own object shadowed frames before (recon.shadow)
 SIGMA_FRACTION = 0.1
+#: the least weight: the share of heights the model does not explain (on random acoustic surveys 4-5 % of the solid
+#: objects' heights lie beyond 2 sigma of their tops), so a height overturns the network only where the network's
+#: odds for its class are below 20:1
+FLOOR = 0.05
 
 
 def height_weights(heights: Sequence[float], class_names: Sequence[str], tops: Mapping[str, float]
@@ -39,7 +44,7 @@ def height_weights(heights: Sequence[float], class_names: Sequence[str], tops: M
     top = np.array([tops.get(n, math.nan) for n in class_names], dtype=np.float64)[None, :]
     sigma = SIGMA_M + SIGMA_FRACTION * top
     with np.errstate(invalid="ignore"):
-        w = np.exp(-0.5 * ((h - top) / sigma) ** 2)
+        w = np.maximum(FLOOR, np.exp(-0.5 * ((h - top) / sigma) ** 2))
     return np.where(np.isfinite(w), w, 1.0)
 
 

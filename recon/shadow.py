@@ -22,7 +22,8 @@ fix it; the vertical beam pattern, the gain and the time-varied gain that shape 
    before the seabed does) is no shadow; a shadow still dark near the window's end is not measured;
 3. each shadow gives a shadow top: its horizontal position (world NED) and its height over the plane.
 
-:meth:`ShadowTops.height` gives a finalized object its top's height from the shadow tops over its footprint.
+:meth:`ShadowTops.height` gives a finalized object its top's height from the shadow tops over its footprint, when
+it stands out of the shadow tops of the seabed around (a rough seabed, or a sand ripple, casts shadows too).
 """
 
 from __future__ import annotations
@@ -80,6 +81,11 @@ FOOTPRINT_M = 0.25
 #: read early where the reference frames held the object's own shadow), few are speckle above it
 MIN_TOPS = 8
 TOP_QUANTILE = 0.9
+#: m around an object's footprint whose shadow tops are the seabed's own (roughness, texture): its height must
+#: stand BACKGROUND_MARGIN_M above their TOP_QUANTILE, twice the 5 cm error of a level top's reading, or it is
+#: not the object's (too few of its own shadows seen); the ring starts 0.25 m beyond the footprint's margin
+RING_M = 3.0
+BACKGROUND_MARGIN_M = 0.1
 #: m of path the shadow tops are kept for (an object is finalized after the vehicle passed it; 100 m covers the
 #: slowest finalization of recon.cluster_stream)
 KEEP_M = 100.0
@@ -219,7 +225,9 @@ class ShadowTops:
     def height(self, points: F64) -> float:
         """An object's top height over the seabed (m) from its points (N, 3, world NED): the
         :data:`TOP_QUANTILE` of the heights of the shadow tops over the points' box widened by
-        :data:`FOOTPRINT_M`; NaN with fewer than :data:`MIN_TOPS` there."""
+        :data:`FOOTPRINT_M`; NaN with fewer than :data:`MIN_TOPS` there, or when it does not stand
+        :data:`BACKGROUND_MARGIN_M` above the same quantile of the seabed's shadow tops in the ring
+        :data:`RING_M` around (with :data:`MIN_TOPS` there)."""
         p = np.asarray(points, np.float64).reshape(-1, 3)
         if p.shape[0] == 0 or not self._tops:
             return float("nan")
@@ -228,7 +236,12 @@ class ShadowTops:
         inside = np.all((t[:, :2] >= lo) & (t[:, :2] <= hi), axis=1)
         if int(inside.sum()) < MIN_TOPS:
             return float("nan")
-        return float(np.quantile(t[inside, 2], TOP_QUANTILE))
+        top = float(np.quantile(t[inside, 2], TOP_QUANTILE))
+        near = np.all((t[:, :2] >= lo - FOOTPRINT_M) & (t[:, :2] <= hi + FOOTPRINT_M), axis=1)
+        ring = np.all((t[:, :2] >= lo - RING_M) & (t[:, :2] <= hi + RING_M), axis=1) & ~near
+        if int(ring.sum()) >= MIN_TOPS and top < float(np.quantile(t[ring, 2], TOP_QUANTILE)) + BACKGROUND_MARGIN_M:
+            return float("nan")
+        return top
 
     @property
     def tops(self) -> F64:

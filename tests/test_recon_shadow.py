@@ -87,3 +87,17 @@ def test_a_plain_seabed_casts_no_shadow() -> None:
     g = SonarGeometry.from_degrees(tilt_deg=20.0, spread_deg=14.0, window_start=1.0, window_length=13.0)
     tops, _ = _run(g, 2.2, 8.0, 8.0, slice(0, 0))
     assert tops.frames_read >= 1 and tops.shadows == 0
+
+
+def test_a_height_that_does_not_stand_out_of_the_seabeds_own_shadows_is_not_measured() -> None:
+    g = SonarGeometry.from_degrees(tilt_deg=20.0, spread_deg=14.0, window_start=1.0, window_length=13.0)
+    tops, _ = _run(g, 2.2, 8.0, 11.0, slice(40, 56))
+    t = tops.tops
+    footprint = np.column_stack([t[:, 0], t[:, 1], np.zeros(len(t))])
+    h = tops.height(footprint)
+    assert h == pytest.approx(0.6, abs=0.04)
+    # a rough seabed around it casting shadows as high: its height no longer tells
+    lo = t[:, :2].min(axis=0)
+    rough = np.column_stack([lo[0] - 2.0 + 0.1 * np.arange(40), np.full(40, lo[1]), np.full(40, h), np.zeros(40)])
+    tops._tops.append(rough)
+    assert math.isnan(tops.height(footprint))
