@@ -82,6 +82,13 @@ def save_checkpoint(path: Path, model: PointNet, class_names: Sequence[str], n_p
     return path
 
 
+def save_recalibrated(ck: Checkpoint, path: Path, calibration: dict[str, Any]) -> Path:
+    """``ck`` (networks, names and metadata as loaded) saved at ``path`` with its ``calibration`` replaced, with
+    its inference export (:func:`save_checkpoint`)."""
+    return save_checkpoint(path, ck.model, ck.class_names, ck.n_points, ck.synthesis, ck.train, ck.metrics,
+                           calibration, ck.members)
+
+
 def write_inference_export(path: Path, models: Sequence[PointNet], class_names: Sequence[str], n_points: int,
                            synthesis: dict[str, Any], calibration: dict[str, Any]) -> Path:
     """Write the inference export of the checkpoint saved at ``path`` (its networks ``models``, first then the

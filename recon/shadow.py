@@ -131,6 +131,8 @@ class ShadowTops:
         smooth = max(1, round(SMOOTH_M / geometry.bin_size))
         dec = max(1, round(REFERENCE_ROW_M / geometry.bin_size))
         gap = round(ECHO_GAP_M / geometry.bin_size) + smooth
+        n_bins = images.shape[1]
+        n_dec = n_bins // dec
         for f in range(images.shape[0]):
             xy = pos[f, :2]
             if self._last_xy is not None:
@@ -139,8 +141,6 @@ class ShadowTops:
             if self._path < self._last_sample + SAMPLE_M:
                 continue
             self._last_sample = self._path
-            n_bins = images.shape[1]
-            n_dec = n_bins // dec
             small = images[f, : n_dec * dec].reshape(n_dec, dec, -1).mean(axis=1, dtype=np.float32)
             ref = self._reference(n_dec, small.shape[1])
             self._ring.append((self._path, np.rint(small).astype(np.uint8)))
@@ -154,8 +154,7 @@ class ShadowTops:
                 continue
             row0 = max(0, int(on.min()) - gap)  # the rows an object's echo and shadow beyond the onset can hold
             sm = uniform_filter1d(images[f, row0:].astype(np.float32), smooth, axis=0, mode="nearest")
-            full = np.repeat(ref, dec, axis=0)[row0:]
-            full = np.concatenate([full, np.repeat(full[-1:], sm.shape[0] - full.shape[0], axis=0)])
+            full = ref[np.minimum(np.arange(row0, n_bins) // dec, n_dec - 1)]  # each row's reference row
             tops = self._frame_tops(sm, full, row0, on, levels, geometry, pos[f], rot[f], point[f], normal[f])
             if tops.shape[0]:
                 self.shadows += tops.shape[0]
@@ -170,9 +169,7 @@ class ShadowTops:
         sel = [img for p, img in self._ring if lo <= p <= hi and img.shape == (rows, beams)]
         if len(sel) < MIN_REFERENCE:
             return None
-        k = len(sel)
-        part = np.partition(np.stack(sel), [(k - 1) // 2, k // 2], axis=0)
-        return np.asarray(0.5 * (part[(k - 1) // 2].astype(np.float32) + part[k // 2]), np.float32)
+        return np.median(np.stack(sel), axis=0).astype(np.float32)
 
     def _frame_tops(self, img: F32, ref: F32, row0: int, on: NDArray[np.int64], levels: tuple[float, float],
                     g: SonarGeometry, pos: F64, rot: Rotation, point: F64, normal: F64) -> F64:
@@ -231,7 +228,7 @@ class ShadowTops:
         p = np.asarray(points, np.float64).reshape(-1, 3)
         if p.shape[0] == 0 or not self._tops:
             return float("nan")
-        t = np.concatenate(self._tops) if len(self._tops) > 1 else self._tops[0]
+        t = self.tops
         lo, hi = p[:, :2].min(axis=0) - FOOTPRINT_M, p[:, :2].max(axis=0) + FOOTPRINT_M
         inside = np.all((t[:, :2] >= lo) & (t[:, :2] <= hi), axis=1)
         if int(inside.sum()) < MIN_TOPS:

@@ -107,15 +107,14 @@ def write_calibrated(model: Path | None, out: Path, threshold: float, source: st
     """A copy of the checkpoint ``model`` (None: the shipped one) at ``out`` whose ``clutter_threshold`` is
     ``threshold``; the one it had is kept as ``clutter_threshold_before``, and ``source`` says where the new one
     came from (``clutter_threshold_source``)."""
-    from classify.checkpoint import save_checkpoint
+    from classify.checkpoint import save_recalibrated
 
     ck = _checkpoint(model)
     cal = dict(ck.calibration)
     cal["clutter_threshold_before"] = cal.get("clutter_threshold")
     cal["clutter_threshold"] = float(threshold)
     cal["clutter_threshold_source"] = source
-    return save_checkpoint(out, ck.model, ck.class_names, ck.n_points, ck.synthesis, ck.train, ck.metrics, cal,
-                           ck.members)
+    return save_recalibrated(ck, out, cal)
 
 
 def model_threshold(model: Path | None) -> float:

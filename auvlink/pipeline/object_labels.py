@@ -27,7 +27,6 @@ intra-op threads.
 from __future__ import annotations
 
 import hashlib
-import math
 from collections.abc import Container, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -138,7 +137,7 @@ class ObjectLabeller:
         assert clf is not None
         prob = self.probabilities(clf, objects)
         labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects],
-                            shadow_heights=[float(getattr(o, "shadow_height", math.nan)) for o in objects])
+                            shadow_heights=[float(o.shadow_height) for o in objects])
         if clf.clutter_index is not None:
             self.scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index], strict=True)]
         for o, lab in zip(objects, labels, strict=True):

@@ -76,10 +76,8 @@ def solid_tops(names: Sequence[str], mesh_for: MeshSource) -> dict[str, float]:
 def write_solid_tops(model: Path, out: Path, mesh_for: MeshSource) -> Path:
     """A copy of the checkpoint ``model`` at ``out`` (and its inference export) whose calibration holds the
     :func:`solid_tops` of its classes."""
-    from classify.checkpoint import load_checkpoint, save_checkpoint
+    from classify.checkpoint import load_checkpoint, save_recalibrated
 
     ck = load_checkpoint(model)
-    cal = {**ck.calibration, "shadow_tops_m": solid_tops(ck.class_names, mesh_for),
-           "shadow_tops_source": SHADOW_TOPS_SOURCE}
-    return save_checkpoint(out, ck.model, ck.class_names, ck.n_points, ck.synthesis, ck.train, ck.metrics, cal,
-                           ck.members)
+    return save_recalibrated(ck, out, {**ck.calibration, "shadow_tops_m": solid_tops(ck.class_names, mesh_for),
+                                       "shadow_tops_source": SHADOW_TOPS_SOURCE})
