@@ -83,7 +83,9 @@ MIN_TOPS = 8
 TOP_QUANTILE = 0.9
 #: m around an object's footprint whose shadow tops are the seabed's own (roughness, texture): its height must
 #: stand BACKGROUND_MARGIN_M above their TOP_QUANTILE, twice the 5 cm error of a level top's reading, or it is
-#: not the object's (too few of its own shadows seen); the ring starts 0.25 m beyond the footprint's margin
+#: not the object's (too few of its own shadows seen); the ring starts 0.25 m beyond the footprint's margin and
+#: leaves out the tops seen over the footprint (the segment from the top back to the sonar crosses it: the object's
+#: own shadow, read where its rounded or far side ends, not the seabed's)
 RING_M = 3.0
 BACKGROUND_MARGIN_M = 0.1
 #: m of path the shadow tops are kept for (an object is finalized after the vehicle passed it; 100 m covers the
@@ -94,7 +96,11 @@ KEEP_M = 100.0
 def _levels(ref: F32, on: NDArray[np.int64]) -> tuple[float, float] | None:
     """The water's level (the reference's median before each beam's onset row ``on``) and the seabed's (beyond it),
     grey levels; None without 8 rows of each or without a seabed band (4 grey levels over the water: 1 dB of a
-    60 dB display)."""
+    60 dB display). Beams whose onset lies beyond the reference's rows (none found) do not count."""
+    keep = on < ref.shape[0]
+    if not keep.any():
+        return None
+    ref, on = ref[:, keep], on[keep]
     before = np.arange(ref.shape[0])[:, None] < on[None, :]
     if before.sum() < 8 * ref.shape[1] or (~before).sum() < 8 * ref.shape[1]:
         return None
@@ -112,6 +118,18 @@ def _runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
     return out
 
 
+def _crosses(a: F64, b: F64, lo: F64, hi: F64) -> NDArray[np.bool_]:
+    """(n,): whether each segment from ``a`` to ``b`` (n, 2) crosses the box ``[lo, hi]`` (2,) (slab test)."""
+    d = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (lo - a) / d, (hi - a) / d
+    inside = (a >= lo) & (a <= hi)
+    near = np.where(d == 0, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2))
+    far = np.where(d == 0, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2))
+    t_in, t_out = near.max(axis=1), far.min(axis=1)
+    return (t_in <= t_out) & (t_out >= 0.0) & (t_in <= 1.0)
+
+
 class ShadowTops:
     """The shadow tops of the frames so far, per horizontal position (module docstring)."""
 
@@ -120,9 +138,13 @@ class ShadowTops:
         self._path = 0.0  # m of horizontal path so far
         self._last_xy: F64 | None = None
         self._last_sample = -math.inf
-        self._tops: list[F64] = []  # (n, 4) chunks: north, east, height over the seabed plane (m), path length (m)
+        # (n, 6) chunks: north, east, height over the seabed plane (m), path length (m), the sonar's north, east (m)
+        self._tops: list[F64] = []
         self.frames_read = 0
         self.shadows = 0
+        #: objects given a height (``measured``) or not: fewer than MIN_TOPS shadow tops over the footprint
+        #: (``too_few_shadows``), not BACKGROUND_MARGIN_M above the seabed's own around (``not_above_seabed``)
+        self.outcomes = {"measured": 0, "too_few_shadows": 0, "not_above_seabed": 0}
 
     def add(self, images: NDArray[np.uint8], geometry: SonarGeometry, onset: F64, pos: F64, rot: Rotation,
             point: F64, normal: F64) -> None:
@@ -148,7 +170,9 @@ class ShadowTops:
             if ref is None:
                 continue
             self.frames_read += 1
-            on = np.clip(np.ceil(geometry.range_to_row(onset[f])), 0, n_bins).astype(np.int64)  # (beams,)
+            # (beams,); a beam without an onset (NaN) has no row beyond it
+            on_rows = np.nan_to_num(np.ceil(geometry.range_to_row(onset[f])), nan=n_bins)
+            on = np.clip(on_rows, 0, n_bins).astype(np.int64)
             levels = _levels(ref, on // dec)
             if levels is None:
                 continue
@@ -158,7 +182,8 @@ class ShadowTops:
             tops = self._frame_tops(sm, full, row0, on, levels, geometry, pos[f], rot[f], point[f], normal[f])
             if tops.shape[0]:
                 self.shadows += tops.shape[0]
-                self._tops.append(np.column_stack([tops, np.full(tops.shape[0], self._path)]))
+                self._tops.append(np.column_stack([tops, np.full(tops.shape[0], self._path),
+                                                   np.broadcast_to(pos[f, :2], (tops.shape[0], 2))]))
         if len(self._tops) > 64:
             t = np.concatenate(self._tops)
             self._tops = [t[t[:, 3] >= self._path - KEEP_M]]
@@ -227,20 +252,26 @@ class ShadowTops:
         :data:`RING_M` around (with :data:`MIN_TOPS` there)."""
         p = np.asarray(points, np.float64).reshape(-1, 3)
         if p.shape[0] == 0 or not self._tops:
+            self.outcomes["too_few_shadows"] += 1
             return float("nan")
         t = self.tops
         lo, hi = p[:, :2].min(axis=0) - FOOTPRINT_M, p[:, :2].max(axis=0) + FOOTPRINT_M
         inside = np.all((t[:, :2] >= lo) & (t[:, :2] <= hi), axis=1)
         if int(inside.sum()) < MIN_TOPS:
+            self.outcomes["too_few_shadows"] += 1
             return float("nan")
         top = float(np.quantile(t[inside, 2], TOP_QUANTILE))
         near = np.all((t[:, :2] >= lo - FOOTPRINT_M) & (t[:, :2] <= hi + FOOTPRINT_M), axis=1)
         ring = np.all((t[:, :2] >= lo - RING_M) & (t[:, :2] <= hi + RING_M), axis=1) & ~near
+        ring[ring] = ~_crosses(t[ring, :2], t[ring, 4:6], lo, hi)  # the object's own shadow is not the seabed's
         if int(ring.sum()) >= MIN_TOPS and top < float(np.quantile(t[ring, 2], TOP_QUANTILE)) + BACKGROUND_MARGIN_M:
+            self.outcomes["not_above_seabed"] += 1
             return float("nan")
+        self.outcomes["measured"] += 1
         return top
 
     @property
     def tops(self) -> F64:
-        """Every shadow top kept: (n, 4) north, east (m, world NED), height over the seabed (m), path length (m)."""
+        """Every shadow top kept: (n, 6) north, east (m, world NED), height over the seabed (m), path length (m), and
+        the sonar's north, east when it was seen (m)."""
         return np.concatenate(self._tops) if self._tops else np.zeros((0, 4))

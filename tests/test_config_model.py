@@ -54,7 +54,7 @@ def test_classify_unknown_keys_and_bounds(tmp_path: Path) -> None:
     for text, key, hint in [("[train]\nepochz = 3\n", "train.epochz", "epochs"),
                             ("[synthesis]\nrays_per_bean = 3\n", "synthesis.rays_per_bean", "rays_per_beam"),
                             ("[train.augment]\nyawn = true\n", "train.augment.yawn", "yaw"),
-                            ("[bogus]\n", "bogus", "quick, synthesis, train"),
+                            ("[bogus]\n", "bogus", "quick, surveys, synthesis, train"),
                             ("[synthesis]\nn_points = 100000000\n", "synthesis.n_points", "16384")]:
         p = tmp_path / "t.toml"
         p.write_text(text)

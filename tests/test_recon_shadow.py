@@ -98,6 +98,38 @@ def test_a_height_that_does_not_stand_out_of_the_seabeds_own_shadows_is_not_meas
     assert h == pytest.approx(0.6, abs=0.04)
     # a rough seabed around it casting shadows as high: its height no longer tells
     lo = t[:, :2].min(axis=0)
-    rough = np.column_stack([lo[0] - 2.0 + 0.1 * np.arange(40), np.full(40, lo[1]), np.full(40, h), np.zeros(40)])
+    north = lo[0] - 2.0 + 0.1 * np.arange(40)
+    seen_from = np.column_stack([north, np.full(40, lo[1] - 8.0)])  # looking east along the row, not over the object
+    rough = np.column_stack([north, np.full(40, lo[1]), np.full(40, h), np.zeros(40), seen_from])
     tops._tops.append(rough)
     assert math.isnan(tops.height(footprint))
+    assert tops.outcomes == {"measured": 1, "too_few_shadows": 0, "not_above_seabed": 1}
+
+
+def test_the_objects_own_shadow_beyond_its_footprint_is_not_the_seabeds() -> None:
+    g = SonarGeometry.from_degrees(tilt_deg=20.0, spread_deg=14.0, window_start=1.0, window_length=13.0)
+    tops, last = _run(g, 2.2, 8.0, 11.0, slice(40, 56))
+    t = tops.tops
+    footprint = np.column_stack([t[:, 0], t[:, 1], np.zeros(len(t))])
+    hi = t[:, :2].max(axis=0)
+    # tops as high 1-2 m beyond the object, read on rays from the sonar (south of it) that passed over it
+    beyond = np.column_stack([np.linspace(hi[0] + 1.0, hi[0] + 2.0, 40), np.full(40, t[:, 1].mean()),
+                              np.full(40, 0.6), np.zeros(40), np.tile(last[:2], (40, 1))])
+    tops._tops.append(beyond)
+    assert tops.height(footprint) == pytest.approx(0.6, abs=0.04)
+
+
+def test_a_beam_without_an_onset_casts_no_shadow() -> None:
+    g = SonarGeometry.from_degrees(tilt_deg=20.0, spread_deg=14.0, window_start=1.0, window_length=13.0)
+    rng = np.random.default_rng(3)
+    n = math.ceil(REFERENCE_M[1] / SAMPLE_M) + 2
+    frames = np.stack([_seabed_frame(g, rng) for _ in range(n)])
+    frames[-1, (g.ranges >= 7.7) & (g.ranges < 8.0), 40:56] = ECHO
+    frames[-1, (g.ranges >= 8.0) & (g.ranges < 11.0), 40:56] = WATER
+    onset = np.full((n, g.n_beams), ONSET_M)
+    onset[:, 40:56] = np.nan  # no onset found in the object's beams
+    pos = np.column_stack([np.arange(n) * SAMPLE_M * 1.001, np.zeros(n), np.zeros(n)])
+    tops = ShadowTops()
+    tops.add(frames.astype(np.uint8), g, onset, pos, Rotation.identity(n), pos + [0.0, 0.0, 2.2],
+             np.tile([0.0, 0.0, -1.0], (n, 1)))
+    assert tops.frames_read >= 1 and tops.shadows == 0

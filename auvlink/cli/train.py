@@ -13,6 +13,12 @@ calibration holds the top heights of the catalogue's solid classes (:mod:`classi
 classification weighs each object's shadow height against (:mod:`classify.shadow_height`); training stores them
 itself.
 
+The survey stage (``[surveys] surveys`` > 0 in the settings, or ``--surveys N``): after the synthesized clouds, the
+networks are trained on from their weights on the clouds recon makes of N simulated surveys drawn over the survey
+and acoustic space (:mod:`classify.training.survey_tuning`, :mod:`auvlink.evaluation.survey_clouds`; cached per
+survey), and the clutter threshold is calibrated on their validation split. ``auvlink train --from-checkpoint
+MODEL.pt --out OUT.pt`` runs that stage alone on an existing checkpoint's networks.
+
 ``auvlink train --export-inference MODEL.pt`` trains nothing: it writes the inference export ``MODEL.npz`` of an
 existing checkpoint (one saved before exports were written, or whose export is stale: made from another file of
 that name). An existing ``MODEL.npz`` is replaced only with ``--force``.
@@ -32,13 +38,22 @@ folder, removed). Keep the calibration seed apart from the seeds you evaluate th
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from auvlink.atomic import check_output_dir, check_output_file
 from auvlink.cli.survey_options import check_survey_options
 from auvlink.errors import AuvlinkError
 from auvlink.sim.acoustics import PROFILES
 from classify.inference_export import export_path, matching_export
+
+if TYPE_CHECKING:
+    from classify.training.config import TrainSettings
+    from classify.training.dataset import CloudSet
+    from classify.training.survey_tuning import SurveyClouds, SurveySettings
+    from classify.training.synthesis import SynthesisSettings
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -72,6 +87,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--calibrate-out", type=Path, default=None, metavar="DIR",
                    help="keep the calibration surveys' results in DIR (new or empty unless --force)")
     p.add_argument("--workers", type=int, default=2, help="--calibrate-surveys: worker processes (default 2)")
+    p.add_argument("--surveys", type=int, default=None, metavar="N",
+                   help="override [surveys] surveys: the simulated surveys whose recon clouds the networks are trained "
+                        "on after the synthesized clouds (0: none)")
+    p.add_argument("--from-checkpoint", type=Path, default=None, metavar="MODEL.pt",
+                   help="synthesize and train nothing first: run the survey stage on the networks of MODEL.pt and "
+                        "write the result to --out (its clutter threshold calibrated again)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -94,13 +115,23 @@ def run(args: argparse.Namespace) -> int:
 
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
                               args.threads)
+    if args.surveys is not None:
+        if not 0 <= args.surveys <= 100_000:
+            raise AuvlinkError(f"--surveys must be an integer in [0, 100000], got {args.surveys}")
+        settings = replace(settings, surveys=replace(settings.surveys, surveys=args.surveys))
+    _check_surveys(settings.surveys)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
+    if args.from_checkpoint is not None:
+        return _from_checkpoint(args, settings, cache)
     extra = {"recon": recon_metrics(cache, progress=not args.quiet)} if args.recon_eval else {}
     extra.update({f"recon_{p}": recon_metrics(cache, not args.quiet, p, quick=True) for p in args.recon_eval_acoustics})
-    out = train_and_save(settings, args.out, cache, progress=not args.quiet, extra_evals=extra)
+    out = train_and_save(settings, args.out, cache, progress=not args.quiet, extra_evals=extra,
+                         survey_clouds=survey_clouds(settings.synthesis, cache, not args.quiet))
     m = out.metrics
     print(f"trained {m['epochs_run']} epochs in {m['train_seconds']:.1f} s (synthesis {m['synthesis_seconds']:.1f} s), "
           f"best epoch {m['best_epoch']}, validation accuracy {m['val_accuracy']:.3f}")
+    if "surveys" in m:
+        _print_surveys(m["surveys"])
     print(f"held-out synthesized clouds ({out.heldout.n}):")
     print(out.heldout.text())
     for key in ("recon", *(f"recon_{p}" for p in args.recon_eval_acoustics)):
@@ -112,6 +143,57 @@ def run(args: argparse.Namespace) -> int:
     if args.calibrate_surveys is not None:
         _calibrate(args, out.path)
     print(f"checkpoint: {out.path} ({out.path.stat().st_size / 1e6:.2f} MB)")
+    return 0
+
+
+def _check_surveys(s: SurveySettings) -> None:
+    """A ``[surveys]`` acoustic space and sonar that cannot go together, refused before any work."""
+    from auvlink.evaluation.acoustic_draw import check_pairing
+
+    try:
+        check_pairing(s.acoustics, s.sonar)
+    except ValueError as exc:
+        raise AuvlinkError(f"[surveys] acoustics = {s.acoustics!r} with sonar = {s.sonar!r}: {exc}") from exc
+
+
+def survey_clouds(synthesis: SynthesisSettings, cache: Path | None, progress: bool) -> SurveyClouds:
+    """What makes the survey stage's clouds (:func:`auvlink.evaluation.survey_clouds.survey_cloud_set`), normalized
+    as ``synthesis``'s clouds, cached under ``cache`` (None: nothing kept)."""
+    from auvlink.evaluation.survey_clouds import survey_cloud_set
+
+    def make(s: SurveySettings, names: Sequence[str]) -> CloudSet:
+        return survey_cloud_set(s.surveys, s.seed, names, n_points=synthesis.n_points, scale_m=synthesis.scale_m,
+                                z_ref=synthesis.z_ref, cache_dir=cache, workers=s.workers, progress=progress,
+                                acoustics=s.acoustics, sonar=s.sonar)
+    return make
+
+
+def _print_surveys(m: dict[str, Any]) -> None:
+    s = m["settings"]
+    print(f"survey stage: {m['n_clouds']} clouds of {s['surveys']} surveys (seed {s['seed']}, acoustics "
+          f"{s['acoustics']}, sonar {s['sonar']}) in {m['clouds_seconds']:.0f} s, trained {m['train_seconds']:.0f} s; "
+          f"validation accuracy {', '.join(f'{a:.3f}' for a in m['val_accuracy'])}")
+
+
+def _from_checkpoint(args: argparse.Namespace, settings: TrainSettings, cache: Path | None) -> int:
+    """``--from-checkpoint``: the survey stage alone (see the module doc)."""
+    checkpoint = args.from_checkpoint
+    if not checkpoint.is_file():
+        raise AuvlinkError(f"--from-checkpoint {checkpoint}: no such checkpoint")
+    if settings.surveys.surveys <= 0:
+        raise AuvlinkError("--from-checkpoint runs the survey stage: give it surveys (--surveys N or [surveys] "
+                           "surveys in --config)")
+    from classify.checkpoint import load_checkpoint
+    from classify.training.synthesis import SynthesisSettings
+    from classify.training.workflow import tune_checkpoint
+
+    synthesis = SynthesisSettings.from_dict(load_checkpoint(checkpoint).synthesis)
+    path, m = tune_checkpoint(checkpoint, settings, args.out, survey_clouds(synthesis, cache, not args.quiet),
+                              progress=not args.quiet)
+    _print_surveys(m)
+    cal = load_checkpoint(path).calibration
+    print(f"clutter threshold {cal.get('clutter_threshold')} (survey clouds' validation split)")
+    print(f"checkpoint: {path} ({path.stat().st_size / 1e6:.2f} MB)")
     return 0
 
 

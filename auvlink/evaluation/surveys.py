@@ -99,7 +99,8 @@ def run_survey(job: SurveyJob) -> dict[str, Any]:
             "score": score_survey(dets, truth)}
 
 
-def _worker_init() -> None:
+def worker_init() -> None:
+    """A survey worker process: one thread for each numerical library (the workers are the parallelism)."""
     os.environ["OMP_NUM_THREADS"] = "1"
     os.environ["MKL_NUM_THREADS"] = "1"
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
@@ -138,14 +139,14 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
     t0 = time.perf_counter()
     records: list[dict[str, Any]] = []
     if workers <= 1:
-        _worker_init()
+        worker_init()
         for j in jobs:
             records.append(_run(j))
             if progress:
                 _progress(records[-1], len(records), n, t0)
     else:
         ctx = mp.get_context("spawn")
-        with ctx.Pool(min(workers, n), initializer=_worker_init) as p:
+        with ctx.Pool(min(workers, n), initializer=worker_init) as p:
             for r in p.imap_unordered(_run, jobs):
                 records.append(r)
                 if progress:

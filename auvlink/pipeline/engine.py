@@ -267,6 +267,7 @@ class Engine:
                 "frames_with_points": rec.frames_with_points if rec else 0, "points": rec.points_total if rec else 0,
                 "seabed_removed": rec.seabed_removed if rec else 0, "objects": len(self.detections),
                 "interfered_frames": rec.interfered_frames if rec else 0,
+                "shadow_heights": dict(rec.shadows.outcomes) if rec else {},
                 "beam_edge_deg": round(float(np.degrees(rec.beam_edge.half)), 3) if rec else None,
                 "rejected_clutter": len(self.labeller.clutter),
                 "rejected_not_objects": {**(dict(getattr(rec, "rejected", {})) if rec else {}),

@@ -2,7 +2,8 @@
 
 Tables: ``[synthesis]`` (fields of :class:`SynthesisSettings`; ``heading_step_deg`` may stand for
 ``headings_deg``), ``[train]`` (fields of :class:`TrainConfig`), ``[train.augment]``
-(:class:`AugmentConfig`) and ``[quick]`` (overrides of ``train`` and ``synthesis`` keys for a
+(:class:`AugmentConfig`), ``[surveys]`` (:class:`~classify.training.survey_tuning.SurveySettings`: the survey
+stage) and ``[quick]`` (overrides of ``train`` and ``synthesis`` keys, and of ``surveys``, for a
 reduced-budget run, e.g. ``epochs``, ``heading_step_deg``).
 """
 
@@ -10,16 +11,19 @@ from __future__ import annotations
 
 import dataclasses
 import typing
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, ConfigDict, Field, create_model
 
 from auvlink.errors import AuvlinkError, ConfigError
+from auvlink.sim.acoustics import PROFILES
+from auvlink.sim.scene import SIMULATED_MODELS
 from auvlink.validation import CONFIG, Boolean, Integer, Number, Text, read_toml, validate
 from classify.checkpoint_meta import MAX_MEMBERS, MAX_POINTS, MAX_WIDTH
 from classify.training.augment import AugmentConfig
+from classify.training.survey_tuning import SurveySettings
 from classify.training.synthesis import SynthesisSettings
 from classify.training.train import TrainConfig
 
@@ -39,6 +43,7 @@ _BOUNDS: dict[str, tuple[Any, ...]] = {
     "clutter_clouds": (0, 100_000), "clutter_rays_per_beam": (2, 1024), "clutter_line_m": ("gt", 0.0, 1000.0),
     "clutter_poll_m": ("gt", 0.0, 100.0), "run_span_m": (0.0, 10.0), "object_patch_views": (0, 100_000),
     "object_patch_lead_m": (0.0, 100.0), "object_patch_offset_m": ("gt", 0.0, 100.0),
+    "surveys": (0, 100_000), "workers": (1, 256),
 }
 #: bounds of each value of a [low, high] pair or a list (the pair itself must be in order)
 _BOUNDS.update({
@@ -53,7 +58,8 @@ _BOUNDS.update({
 })
 #: the words a text setting takes (synthesis_settings: any other word silently meant the other mode)
 _CHOICES: dict[str, tuple[str, ...]] = {"mode": ("paper", "scan"), "detect": ("cos", "energy"),
-                                        "correction": ("none", "arc"), "z_ref": ("mean", "seabed")}
+                                        "correction": ("none", "arc"), "z_ref": ("mean", "seabed"),
+                                        "acoustics": ("random", *PROFILES), "sonar": ("random", *SIMULATED_MODELS)}
 _LEAF = {float: Number, int: Integer, bool: Boolean, str: Text}
 
 
@@ -113,9 +119,11 @@ TrainTable = table_model(TrainConfig, "TrainTable", {"augment": (AugmentTable | 
 QuickTable = create_model("QuickTable", __config__=ConfigDict(**CONFIG),  # type: ignore[call-overload]
                           **{k: (v.annotation, None) for k, v in {**SynthesisTable.model_fields,
                                                                   **TrainTable.model_fields}.items()
-                             if k != "augment"})
+                             if k != "augment"}, surveys=(_leaf(int, "surveys") | None, None))
+SurveysTable = table_model(SurveySettings, "SurveysTable")
 TrainFile = create_model("TrainFile", __config__=ConfigDict(**CONFIG), synthesis=(SynthesisTable | None, None),
-                         train=(TrainTable | None, None), quick=(QuickTable | None, None))
+                         train=(TrainTable | None, None), quick=(QuickTable | None, None),
+                         surveys=(SurveysTable | None, None))
 
 
 @dataclass(frozen=True)
@@ -123,6 +131,7 @@ class TrainSettings:
     synthesis: SynthesisSettings
     train: TrainConfig
     source: str = ""
+    surveys: SurveySettings = field(default_factory=SurveySettings)
 
 
 def _synthesis(table: dict[str, Any]) -> SynthesisSettings:
@@ -144,14 +153,18 @@ def load_train_settings(path: Path | None = None, quick: bool = False) -> TrainS
     doc, _ = read_toml(path, str(path))
     validate(TrainFile, doc)
     syn_t, train_t = dict(doc.get("synthesis", {})), dict(doc.get("train", {}))
+    surveys_t = dict(doc.get("surveys", {}))
     if quick:
         for k, v in doc.get("quick", {}).items():
-            if k in SynthesisSettings.__dataclass_fields__ or k == "heading_step_deg":
+            if k == "surveys":
+                surveys_t[k] = v
+            elif k in SynthesisSettings.__dataclass_fields__ or k == "heading_step_deg":
                 syn_t[k] = v
             else:
                 train_t[k] = v
     try:
-        return TrainSettings(_synthesis(syn_t), TrainConfig.from_dict(train_t), str(path))
+        return TrainSettings(_synthesis(syn_t), TrainConfig.from_dict(train_t), str(path),
+                             SurveySettings.from_dict(surveys_t))
     except (TypeError, ValueError) as exc:
         raise ConfigError(str(path), f"bad training settings: {exc}", "check the values") from exc
 

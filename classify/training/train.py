@@ -144,16 +144,20 @@ def _train_epoch(model: PointNet, opt: torch.optim.Optimizer, sched: torch.optim
 
 
 def train(data: CloudSet, cfg: TrainConfig, progress: bool = True,
-          device: torch.device | None = None) -> TrainResult:
-    """Train a PointNet on ``data``; returns the best model (by validation accuracy)."""
+          device: torch.device | None = None, init: PointNet | None = None) -> TrainResult:
+    """Train a PointNet on ``data``; returns the best model (by validation accuracy). ``init``: start from a copy of
+    this network's weights (same classes, as ``data``'s) instead of a new one."""
     if cfg.threads > 0:
         torch.set_num_threads(cfg.threads)
     device = device or default_device()
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
     tr_idx, va_idx = stratified_split(data.labels, cfg.val_fraction, rng)
-    model = PointNet(PointNetConfig(num_classes=len(data.class_names), width=cfg.width,
-                                    dropout=cfg.dropout)).to(device)
+    if init is not None and init.cfg.num_classes != len(data.class_names):
+        raise ValueError(f"the network to start from has {init.cfg.num_classes} outputs, the clouds "
+                         f"{len(data.class_names)} classes")
+    model = copy.deepcopy(init).to(device) if init is not None else \
+        PointNet(PointNetConfig(num_classes=len(data.class_names), width=cfg.width, dropout=cfg.dropout)).to(device)
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     steps_per_epoch = max(1, int(np.ceil(len(tr_idx) / cfg.batch_size)))
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=cfg.lr, epochs=cfg.epochs,

@@ -14,7 +14,7 @@ clouds).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -22,13 +22,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from classify.checkpoint import save_checkpoint
+from classify.checkpoint import load_checkpoint, save_checkpoint
+from classify.errors import SynthesisError
 from classify.infer import Classifier
 from classify.labels import CLUTTER, with_clutter
+from classify.pointnet import PointNet
 from classify.training.config import TrainSettings
 from classify.training.dataset import CloudSet, MeshSource, catalog_meshes, heldout_settings, synthesize_set
 from classify.training.evaluate import EvalReport
 from classify.training.solid_tops import SHADOW_TOPS_SOURCE, solid_tops
+from classify.training.survey_tuning import SurveyClouds, tune_on_surveys
 from classify.training.synthesis import SynthesisSettings
 from classify.training.train import TrainResult, train
 
@@ -81,9 +84,43 @@ def calibrate_clutter(clf: Classifier, data: CloudSet, share: float = CLUTTER_SH
             "clutter_recall": float(1.0 - missed[k])}
 
 
+@dataclass
+class SurveyStage:
+    """The networks after the survey stage, the clouds whose validation split calibrates the clutter threshold, and
+    the stage's metrics."""
+
+    models: list[PointNet]
+    calibration_set: CloudSet
+    metrics: dict[str, Any]
+
+
+def survey_stage(models: Sequence[PointNet], settings: TrainSettings, names: Sequence[str],
+                 survey_clouds: SurveyClouds | None, progress: bool = True) -> SurveyStage:
+    """``models`` trained on from their weights on the clouds of ``settings.surveys`` simulated surveys
+    (:mod:`classify.training.survey_tuning`); ``survey_clouds`` makes them (the application layer's)."""
+    s = settings.surveys
+    if survey_clouds is None:
+        raise SynthesisError(f"[surveys] surveys = {s.surveys} needs the clouds of simulated surveys: run "
+                             "`auvlink train`, or set surveys = 0")
+    t0 = time.perf_counter()
+    data = survey_clouds(s, tuple(names))
+    t_clouds = time.perf_counter() - t0
+    if len(data) < 2 * len(names):
+        raise SynthesisError(f"{s.surveys} surveys gave {len(data)} clouds, too few for {len(names)} classes: "
+                             "draw more ([surveys] surveys)")
+    tuned = tune_on_surveys(models, data, s, settings.train, progress)
+    counts = np.bincount(data.labels, minlength=len(names))
+    per_class = dict(zip(names, counts.tolist(), strict=True))
+    metrics = {"settings": s.to_dict(), "n_clouds": len(data), "clouds_per_class": per_class,
+               "clouds_seconds": t_clouds, "train_seconds": sum(r.seconds for r in tuned),
+               "val_accuracy": [r.val_accuracy for r in tuned], "best_epoch": [r.best_epoch for r in tuned]}
+    return SurveyStage([r.model for r in tuned], data.subset(tuned[0].val_idx), metrics)
+
+
 def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = None, progress: bool = True,
                    meshes: tuple[tuple[str, ...], MeshSource] | None = None,
-                   extra_evals: Mapping[str, Callable[[Classifier], dict[str, Any]]] | None = None) -> TrainOutcome:
+                   extra_evals: Mapping[str, Callable[[Classifier], dict[str, Any]]] | None = None,
+                   survey_clouds: SurveyClouds | None = None) -> TrainOutcome:
     names, mesh_for = meshes if meshes is not None else catalog_meshes()
     names = with_clutter(names, settings.synthesis.clutter_clouds > 0)
     t0 = time.perf_counter()
@@ -93,6 +130,7 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
     others = [train(data, replace(settings.train, seed=settings.train.seed + k), progress=progress)
               for k in range(1, max(1, settings.train.members))]
     members = [r.model for r in others]
+    model = result.model
     held_settings = heldout_settings(settings.synthesis)
     held = synthesize_set(names, mesh_for, held_settings, cache_dir, progress)
     metrics: dict[str, Any] = {
@@ -101,13 +139,18 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
         "epochs_run": len(result.history), "val_accuracy": result.val_accuracy, "n_train_clouds": len(data),
         "history": result.history, "config_source": settings.source,
     }
+    calibration_set = data.subset(result.val_idx)
+    if settings.surveys.surveys > 0:
+        stage = survey_stage([model, *members], settings, names, survey_clouds, progress)
+        model, members, calibration_set = stage.models[0], stage.models[1:], stage.calibration_set
+        metrics["surveys"] = stage.metrics
 
     def save(calibration: dict[str, Any] | None = None) -> Path:  # the metrics as they stand
-        return save_checkpoint(out, result.model, names, settings.train.n_points, settings.synthesis.to_dict(),
+        return save_checkpoint(out, model, names, settings.train.n_points, settings.synthesis.to_dict(),
                                settings.train.to_dict(), metrics, calibration, members)
 
     path = save()
-    calibration = {**calibrate_clutter(Classifier.load(path), data.subset(result.val_idx)),
+    calibration = {**calibrate_clutter(Classifier.load(path), calibration_set),
                    "shadow_tops_m": solid_tops(names, mesh_for), "shadow_tops_source": SHADOW_TOPS_SOURCE}
     metrics["calibration"] = calibration
     path = save(calibration)
@@ -134,3 +177,25 @@ def heldout_set(synthesis: dict[str, Any] | SynthesisSettings, class_names: tupl
         held = replace(held, clutter_clouds=max(8, round(held.clutter_clouds * len(held.directions) / views)),
                        object_patch_views=min(held.object_patch_views, 2))
     return synthesize_set(class_names, mesh_for, held, cache_dir, progress)
+
+
+def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey_clouds: SurveyClouds,
+                    progress: bool = True) -> tuple[Path, dict[str, Any]]:
+    """``auvlink train --from-checkpoint``: the survey stage alone on the networks of ``checkpoint`` (its classes,
+    synthesis and training settings kept), its clutter threshold calibrated again on the survey clouds; saved to
+    ``out`` (with its inference export). Returns the path and the stage's metrics."""
+    ck = load_checkpoint(checkpoint)
+    stage = survey_stage([ck.model, *ck.members], settings, ck.class_names, survey_clouds, progress)
+    metrics = {**ck.metrics, "surveys": {**stage.metrics, "from_checkpoint": str(checkpoint)}}
+    models = stage.models
+
+    def save(calibration: dict[str, Any]) -> Path:
+        return save_checkpoint(out, models[0], ck.class_names, ck.n_points, ck.synthesis, ck.train, metrics,
+                               calibration, models[1:])
+
+    path = save(ck.calibration)
+    clutter = calibrate_clutter(Classifier.load(path), stage.calibration_set)
+    calibration = {k: v for k, v in ck.calibration.items() if k != "clutter_threshold_before"}
+    calibration.update(clutter)
+    metrics["calibration"] = calibration
+    return save(calibration), stage.metrics
