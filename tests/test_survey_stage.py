@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from auvlink.evaluation.draw import draw_surveys
-from auvlink.evaluation.survey_clouds import MATCH_M, label_objects, survey_cloud_set
+from auvlink.evaluation.survey_clouds import MATCH_M, cache_key, label_objects, survey_cloud_set
 from classify.checkpoint import load_checkpoint, save_checkpoint
 from classify.labels import CLUTTER
 from classify.pointnet import PointNet, PointNetConfig
@@ -73,7 +73,7 @@ def test_the_stage_needs_its_clouds_and_enough_of_them() -> None:
 
 def test_surveys_settings_are_checked() -> None:
     s = load_train_settings()
-    assert s.surveys.surveys > 0 and s.surveys.acoustics == "random"
+    assert s.surveys.acoustics == "random" and s.surveys.seed == 31 and s.surveys.epochs > 0
     assert load_train_settings(quick=True).surveys.surveys == 0  # --quick runs no survey stage
 
 
@@ -116,9 +116,19 @@ def test_from_checkpoint_runs_the_survey_stage_on_its_networks(tmp_path: Path) -
     names = ("sphere", "hemisphere", "box", "pipe", "half_pipe", "reef_a", "reef_b", "reef_c", CLUTTER)
     nets = [PointNet(PointNetConfig(num_classes=len(names), width=0.125)) for _ in range(2)]
     start = save_checkpoint(tmp_path / "start.pt", nets[0], names, 64,
-                            SynthesisSettings(n_points=128, scale_m=1.5, z_ref="seabed").to_dict(),
+                            replace(load_train_settings().synthesis, headings_deg=(0.0, 120.0, 240.0),
+                                    tilts_deg=(25.0, 40.0), copies=1, n_points=128, object_patch_views=0).to_dict(),
                             replace(CFG, batch_size=4).to_dict(), {"heldout": {"accuracy": 0.5}},
                             {"clutter_threshold": 0.6, "shadow_tops_m": {"sphere": 1.0}}, nets[1:])
+    # the survey clouds from the cache (survey_cloud_set's own files; the harvest itself is tested above)
+    key = cache_key(5, "random", "didson", 128, 1.5, "seabed")
+    (tmp_path / "cache" / "surveys").mkdir(parents=True)
+    rng = np.random.default_rng(0)
+    for i in range(3):
+        labels = np.array([names[(i * 9 + k) % 9] for k in range(12)])
+        np.savez(tmp_path / "cache" / "surveys" / f"{key}-{i:04d}.npz",
+                 clouds=rng.normal(0.0, 0.3, (12, 128, 3)).astype(np.float32), labels=labels,
+                 shadow_heights=np.full(12, np.nan), heading_deg=np.zeros(12), tilt_deg=np.full(12, 30.0))
     cfg = tmp_path / "s.toml"
     cfg.write_text("[train]\nbatch_size = 4\nn_points = 64\nwidth = 0.125\nval_fraction = 0.25\n"
                    "[surveys]\nsurveys = 3\nseed = 5\nepochs = 1\nworkers = 1\n")
@@ -128,7 +138,9 @@ def test_from_checkpoint_runs_the_survey_stage_on_its_networks(tmp_path: Path) -
     assert main(args) == 0
     ck = load_checkpoint(out)
     assert ck.class_names == names and len(ck.members) == 1
-    assert ck.metrics["surveys"]["settings"]["surveys"] == 3 and ck.metrics["heldout"]["accuracy"] == 0.5
+    assert ck.metrics["surveys"]["settings"]["surveys"] == 3 and ck.metrics["surveys"]["n_clouds"] == 36
+    assert ck.metrics["heldout_before_surveys"] == {"accuracy": 0.5}  # the start's report, kept under its name
+    assert ck.metrics["heldout"]["thin"] and ck.metrics["heldout"]["n"] >= 8  # its held-out clouds classified again
     assert ck.calibration["shadow_tops_m"] == {"sphere": 1.0} and 0.3 <= ck.calibration["clutter_threshold"] <= 0.95
     assert out.with_suffix(".npz").is_file()
     before = out.read_bytes()

@@ -189,10 +189,12 @@ def _from_checkpoint(args: argparse.Namespace, settings: TrainSettings, cache: P
 
     synthesis = SynthesisSettings.from_dict(load_checkpoint(checkpoint).synthesis)
     path, m = tune_checkpoint(checkpoint, settings, args.out, survey_clouds(synthesis, cache, not args.quiet),
-                              progress=not args.quiet)
+                              cache, progress=not args.quiet)
     _print_surveys(m)
-    cal = load_checkpoint(path).calibration
-    print(f"clutter threshold {cal.get('clutter_threshold')} (survey clouds' validation split)")
+    ck = load_checkpoint(path)
+    print(f"clutter threshold {ck.calibration.get('clutter_threshold')} (survey clouds' validation split); "
+          f"held-out synthesized clouds (thinned, {ck.metrics['heldout']['n']}): accuracy "
+          f"{ck.metrics['heldout']['accuracy']:.3f}")
     print(f"checkpoint: {path} ({path.stat().st_size / 1e6:.2f} MB)")
     return 0
 

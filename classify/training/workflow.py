@@ -180,13 +180,17 @@ def heldout_set(synthesis: dict[str, Any] | SynthesisSettings, class_names: tupl
 
 
 def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey_clouds: SurveyClouds,
-                    progress: bool = True) -> tuple[Path, dict[str, Any]]:
+                    cache_dir: Path | None = None, progress: bool = True) -> tuple[Path, dict[str, Any]]:
     """``auvlink train --from-checkpoint``: the survey stage alone on the networks of ``checkpoint`` (its classes,
-    synthesis and training settings kept), its clutter threshold calibrated again on the survey clouds; saved to
-    ``out`` (with its inference export). Returns the path and the stage's metrics."""
+    synthesis and training settings kept), its clutter threshold calibrated again on the survey clouds, and its
+    held-out synthesized clouds (:func:`heldout_set`, thinned) classified again (the checkpoint's own held-out report
+    kept as ``heldout_before_surveys``); saved to ``out`` (with its inference export). Returns the path and the
+    stage's metrics."""
     ck = load_checkpoint(checkpoint)
     stage = survey_stage([ck.model, *ck.members], settings, ck.class_names, survey_clouds, progress)
     metrics = {**ck.metrics, "surveys": {**stage.metrics, "from_checkpoint": str(checkpoint)}}
+    if "heldout" in ck.metrics:
+        metrics["heldout_before_surveys"] = metrics.pop("heldout")
     models = stage.models
 
     def save(calibration: dict[str, Any]) -> Path:
@@ -198,4 +202,7 @@ def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey
     calibration = {k: v for k, v in ck.calibration.items() if k != "clutter_threshold_before"}
     calibration.update(clutter)
     metrics["calibration"] = calibration
+    path = save(calibration)
+    held = heldout_set(ck.synthesis, ck.class_names, cache_dir, progress=progress, thin=True)
+    metrics["heldout"] = {"thin": True, **evaluate_classifier(Classifier.load(path), held).to_dict()}
     return save(calibration), stage.metrics
