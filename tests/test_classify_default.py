@@ -23,9 +23,9 @@ from classify.training.synthesis import MeshSynthesizer, SynthesisSettings
 torch.set_num_threads(1)
 catalog = pytest.importorskip("auvlink.sim.object_meshes")
 
-#: a `--quick` retrain (9 headings, one pass per direction, 12 clutter clouds, 6 views on rough patches per
-#: class, 12 epochs: about 140 s here) must reach the shipped model's held-out accuracy minus this (measured: 0.910
-#: against 0.937)
+#: a `--quick` retrain (6 headings, one pass per direction, 8 clutter clouds, 6 views on rough patches per class:
+#: 248 clouds; 40 epochs, about 90 s here) must reach the shipped model's held-out accuracy minus this (measured:
+#: 0.708 against 0.850; 12 epochs reached 0.576, still learning)
 QUICK_TOLERANCE = 0.25
 #: accuracy on the held-out views synthesized by the test (single, fused and partial views as in training:
 #: measured 0.873, 55 of 63), with a margin

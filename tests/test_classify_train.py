@@ -89,7 +89,7 @@ def test_shipped_settings_load() -> None:
     assert len(s.synthesis.directions) == 72  # 18 headings x 4 tilts
     assert s.synthesis.tilts_deg[0] == 20.0 and s.synthesis.tilts_deg[-1] == 45.0
     q = load_train_settings(quick=True)
-    assert q.train.epochs < s.train.epochs and len(q.synthesis.directions) < 72
+    assert q.train.epochs <= s.train.epochs and len(q.synthesis.directions) < 72  # fewer clouds, as many epochs
     assert s.train.members == 4 and q.train.members == 1  # the shipped model averages four seeds
     assert s.synthesis.object_patch_views == 150 and 0 < q.synthesis.object_patch_views < 150
 
