@@ -130,7 +130,7 @@ def test_training_settings_bounded_as_the_checkpoint(old: str, new: str, key: st
 
 @pytest.mark.parametrize(("option", "kwargs"), [
     ("--epochs", {"epochs": -1}), ("--epochs", {"epochs": 0}), ("--threads", {"threads": 0}),
-    ("--seed", {"seed": -1}),
+    ("--seed", {"seed": -1}), ("--surveys", {"surveys": -1}), ("--surveys", {"surveys": 10_001}),
 ])
 def test_training_overrides_checked(option: str, kwargs: dict[str, int]) -> None:
     from classify.training.config import load_train_settings, with_overrides

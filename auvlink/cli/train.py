@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -114,11 +113,7 @@ def run(args: argparse.Namespace) -> int:
     from classify.training.workflow import train_and_save
 
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
-                              args.threads)
-    if args.surveys is not None:
-        if not 0 <= args.surveys <= 100_000:
-            raise AuvlinkError(f"--surveys must be an integer in [0, 100000], got {args.surveys}")
-        settings = replace(settings, surveys=replace(settings.surveys, surveys=args.surveys))
+                              args.threads, args.surveys)
     _check_surveys(settings.surveys)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     if args.from_checkpoint is not None:
@@ -190,11 +185,9 @@ def _from_checkpoint(args: argparse.Namespace, settings: TrainSettings, cache: P
     synthesis = SynthesisSettings.from_dict(load_checkpoint(checkpoint).synthesis)
     path, m = tune_checkpoint(checkpoint, settings, args.out, survey_clouds(synthesis, cache, not args.quiet),
                               cache, progress=not args.quiet)
-    _print_surveys(m)
-    ck = load_checkpoint(path)
-    print(f"clutter threshold {ck.calibration.get('clutter_threshold')} (survey clouds' validation split); "
-          f"held-out synthesized clouds (thinned, {ck.metrics['heldout']['n']}): accuracy "
-          f"{ck.metrics['heldout']['accuracy']:.3f}")
+    _print_surveys(m["surveys"])
+    print(f"clutter threshold {m['calibration'].get('clutter_threshold')} (survey clouds' validation split); "
+          f"held-out synthesized clouds (thinned, {m['heldout']['n']}): accuracy {m['heldout']['accuracy']:.3f}")
     print(f"checkpoint: {path} ({path.stat().st_size / 1e6:.2f} MB)")
     return 0
 

@@ -1,9 +1,10 @@
 """Training clouds from simulated surveys: the clouds recon hands the classifier, over the survey space and the
-acoustic space (``auvlink train``'s ``[synthesis] survey_clouds``).
+acoustic space (the survey stage of ``auvlink train``, ``[surveys]``).
 
-Each survey of a draw (:mod:`auvlink.evaluation.draw`, the sonar model drawn per survey) is rendered under
-acoustic conditions drawn with it (:mod:`auvlink.evaluation.acoustic_draw`, ``random``: every sonar profile, beam
-pattern, sidelobe level, pulse, gain, TVG error, noise floor and interference of the space), simulated into a
+Each survey of a draw (:mod:`auvlink.evaluation.draw`, flown with one sonar model or one drawn per survey) is
+rendered under acoustic conditions drawn with it (:mod:`auvlink.evaluation.acoustic_draw`, ``random``: over the
+profile of the survey's sonar, its beam pattern, sidelobe level, pulse, gain, TVG error, noise floor and
+interference drawn over the space), simulated into a
 temporary log (:func:`auvlink.sim.mission.simulate_to_log`) and replayed without classification
 (:func:`auvlink.pipeline.process.run_log`: every object recon finalizes is kept). Each object is labelled with the
 class of the true object within :data:`MATCH_M` of its centre, else ``clutter`` (a crest of the seabed, a sidelobe

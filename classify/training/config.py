@@ -43,7 +43,8 @@ _BOUNDS: dict[str, tuple[Any, ...]] = {
     "clutter_clouds": (0, 100_000), "clutter_rays_per_beam": (2, 1024), "clutter_line_m": ("gt", 0.0, 1000.0),
     "clutter_poll_m": ("gt", 0.0, 100.0), "run_span_m": (0.0, 10.0), "object_patch_views": (0, 100_000),
     "object_patch_lead_m": (0.0, 100.0), "object_patch_offset_m": ("gt", 0.0, 100.0),
-    "surveys": (0, 100_000), "workers": (1, 256),
+    # as auvlink.cli.survey_options' MAX_SURVEYS and MAX_WORKERS (each survey minutes of work; 0: no survey stage)
+    "surveys": (0, 10_000), "workers": (1, 256),
 }
 #: bounds of each value of a [low, high] pair or a list (the pair itself must be in order)
 _BOUNDS.update({
@@ -170,9 +171,10 @@ def load_train_settings(path: Path | None = None, quick: bool = False) -> TrainS
 
 
 def with_overrides(s: TrainSettings, epochs: int | None = None, seed: int | None = None,
-                   threads: int | None = None) -> TrainSettings:
-    """``s`` with the command line's ``--epochs``, ``--seed``, ``--threads``, each checked as in ``[train]``."""
-    for option, value in (("epochs", epochs), ("seed", seed), ("threads", threads)):
+                   threads: int | None = None, surveys: int | None = None) -> TrainSettings:
+    """``s`` with the command line's ``--epochs``, ``--seed``, ``--threads`` (each checked as in ``[train]``) and
+    ``--surveys`` (as in ``[surveys]``)."""
+    for option, value in (("epochs", epochs), ("seed", seed), ("threads", threads), ("surveys", surveys)):
         lo, hi = _BOUNDS[option]
         if value is not None and not lo <= value <= hi:
             raise AuvlinkError(f"--{option} must be an integer in [{lo}, {hi}], got {value}")
@@ -183,4 +185,6 @@ def with_overrides(s: TrainSettings, epochs: int | None = None, seed: int | None
         train = replace(train, epochs=epochs)
     if seed is not None:
         train = replace(train, seed=seed)
+    if surveys is not None:
+        s = replace(s, surveys=replace(s.surveys, surveys=surveys))
     return replace(s, train=train)

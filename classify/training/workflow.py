@@ -185,7 +185,7 @@ def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey
     synthesis and training settings kept), its clutter threshold calibrated again on the survey clouds, and its
     held-out synthesized clouds (:func:`heldout_set`, thinned) classified again (the checkpoint's own held-out report
     kept as ``heldout_before_surveys``); saved to ``out`` (with its inference export). Returns the path and the
-    stage's metrics."""
+    metrics saved with it."""
     ck = load_checkpoint(checkpoint)
     stage = survey_stage([ck.model, *ck.members], settings, ck.class_names, survey_clouds, progress)
     metrics = {**ck.metrics, "surveys": {**stage.metrics, "from_checkpoint": str(checkpoint)}}
@@ -205,4 +205,4 @@ def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey
     path = save(calibration)
     held = heldout_set(ck.synthesis, ck.class_names, cache_dir, progress=progress, thin=True)
     metrics["heldout"] = {"thin": True, **evaluate_classifier(Classifier.load(path), held).to_dict()}
-    return save(calibration), stage.metrics
+    return save(calibration), metrics
