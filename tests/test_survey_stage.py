@@ -11,13 +11,13 @@ import pytest
 import torch
 
 from auvlink.evaluation.draw import draw_surveys
-from auvlink.evaluation.survey_clouds import MATCH_M, cache_key, label_objects, survey_cloud_set
+from auvlink.evaluation.survey_clouds import MATCH_M, cache_key, label_objects, survey_cloud_set, survey_space
 from classify.checkpoint import load_checkpoint, save_checkpoint
 from classify.labels import CLUTTER
 from classify.pointnet import PointNet, PointNetConfig
 from classify.training.config import TrainSettings, load_train_settings
 from classify.training.dataset import CloudSet
-from classify.training.survey_tuning import SurveySettings, tune_on_surveys
+from classify.training.survey_tuning import SurveySettings, mixed_with_synthesized, tune_on_surveys
 from classify.training.synthesis import SynthesisSettings
 from classify.training.train import TrainConfig, train
 from classify.training.workflow import survey_stage
@@ -71,6 +71,47 @@ def test_the_stage_needs_its_clouds_and_enough_of_them() -> None:
     assert len(stage.calibration_set) == 8  # the validation split: 2 per class
 
 
+def test_every_kth_survey_is_flown_under_the_idealized_model() -> None:
+    assert [survey_space(i, "random", 4) for i in range(8)] == ["random"] * 3 + ["ideal"] + ["random"] * 3 + ["ideal"]
+    assert {survey_space(i, "didson", 0) for i in range(8)} == {"didson"}
+    assert {survey_space(i, "random", 1) for i in range(3)} == {"ideal"}
+
+
+def test_synthesized_clouds_make_up_their_share_and_stay_apart() -> None:
+    surveys, synthesized = _clouds(8), _clouds(40, seed=1)
+    synthesized = replace(synthesized, measured=np.zeros(len(synthesized), bool))
+    mixed, from_survey = mixed_with_synthesized(surveys, synthesized, 0.5, seed=3)
+    assert len(mixed) == 64 and from_survey.sum() == 32 and not from_survey[32:].any()
+    assert np.array_equal(mixed.points[:32], surveys.points) and np.array_equal(mixed.labels[:32], surveys.labels)
+    assert mixed.measured is not None and mixed.measured.tolist() == from_survey.tolist()
+    rows = {c.tobytes() for c in synthesized.points}
+    assert all(c.tobytes() in rows for c in mixed.points[32:])  # drawn from the synthesized set, without repeats
+    assert len({c.tobytes() for c in mixed.points[32:]}) == 32
+    again, _ = mixed_with_synthesized(surveys, synthesized, 0.5, seed=3)
+    assert np.array_equal(again.points, mixed.points)  # the seed fixes the draw
+    assert len(mixed_with_synthesized(surveys, synthesized, 0.75, seed=3)[0]) == 32 + 96
+    assert len(mixed_with_synthesized(surveys, synthesized, 0.95, seed=3)[0]) == 32 + 160  # at most all of them
+    same, mask = mixed_with_synthesized(surveys, None, 0.5, seed=3)
+    assert same is surveys and mask.all()
+    with pytest.raises(ValueError, match="z_ref"):
+        mixed_with_synthesized(surveys, replace(synthesized, z_ref="mean"), 0.5, seed=3)
+
+
+def test_the_stage_calibrates_on_survey_clouds_only() -> None:
+    from classify.errors import SynthesisError
+
+    settings = TrainSettings(SynthesisSettings(), CFG, surveys=SurveySettings(surveys=2, epochs=1,
+                                                                              synthesized_share=0.5))
+    net = PointNet(PointNetConfig(num_classes=4, width=0.125))
+    with pytest.raises(SynthesisError, match="synthesized_share"):
+        survey_stage([net], settings, NAMES, lambda s, names: _clouds(8), progress=False)
+    synthesized = replace(_clouds(40, seed=1), measured=np.zeros(160, bool))
+    stage = survey_stage([net], settings, NAMES, lambda s, names: _clouds(8), synthesized, progress=False)
+    assert stage.metrics["n_clouds"] == 32 and stage.metrics["n_synthesized"] == 32
+    cal = stage.calibration_set
+    assert 0 < len(cal) < 16 and cal.measured is not None and cal.measured.all()  # no synthesized cloud in it
+
+
 def test_surveys_settings_are_checked() -> None:
     s = load_train_settings()
     assert s.surveys.acoustics == "random" and s.surveys.seed == 31 and s.surveys.epochs > 0
@@ -79,7 +120,9 @@ def test_surveys_settings_are_checked() -> None:
 
 @pytest.mark.parametrize("text,key", [('[surveys]\nsonar = "gemini"\n', "surveys.sonar"),
                                       ("[surveys]\nsurveyz = 3\n", "surveys.surveyz"),
-                                      ("[surveys]\nsurveys = -1\n", "surveys.surveys")])
+                                      ("[surveys]\nsurveys = -1\n", "surveys.surveys"),
+                                      ("[surveys]\nsynthesized_share = 1.0\n", "surveys.synthesized_share"),
+                                      ("[surveys]\nideal_every = -4\n", "surveys.ideal_every")])
 def test_bad_surveys_settings_name_the_key(tmp_path: Path, text: str, key: str) -> None:
     from auvlink.errors import ConfigError
 
@@ -121,17 +164,18 @@ def test_from_checkpoint_runs_the_survey_stage_on_its_networks(tmp_path: Path) -
                             replace(CFG, batch_size=4).to_dict(), {"heldout": {"accuracy": 0.5}},
                             {"clutter_threshold": 0.6, "shadow_tops_m": {"sphere": 1.0}}, nets[1:])
     # the survey clouds from the cache (survey_cloud_set's own files; the harvest itself is tested above)
-    key = cache_key(5, "random", "didson", 128, 1.5, "seabed")
     (tmp_path / "cache" / "surveys").mkdir(parents=True)
     rng = np.random.default_rng(0)
     for i in range(3):
+        key = cache_key(5, "ideal" if i == 2 else "random", "didson", 128, 1.5, "seabed")  # ideal_every = 3
         labels = np.array([names[(i * 9 + k) % 9] for k in range(12)])
         np.savez(tmp_path / "cache" / "surveys" / f"{key}-{i:04d}.npz",
                  clouds=rng.normal(0.0, 0.3, (12, 128, 3)).astype(np.float32), labels=labels,
                  shadow_heights=np.full(12, np.nan), heading_deg=np.zeros(12), tilt_deg=np.full(12, 30.0))
     cfg = tmp_path / "s.toml"
     cfg.write_text("[train]\nbatch_size = 4\nn_points = 64\nwidth = 0.125\nval_fraction = 0.25\n"
-                   "[surveys]\nsurveys = 3\nseed = 5\nepochs = 1\nworkers = 1\n")
+                   "[surveys]\nsurveys = 3\nseed = 5\nepochs = 1\nworkers = 1\nideal_every = 3\n"
+                   "synthesized_share = 0.25\n")
     out = tmp_path / "tuned.pt"
     args = ["train", "--from-checkpoint", str(start), "--config", str(cfg), "--out", str(out), "--quiet",
             "--cache", str(tmp_path / "cache"), "--threads", "1"]
@@ -139,6 +183,7 @@ def test_from_checkpoint_runs_the_survey_stage_on_its_networks(tmp_path: Path) -
     ck = load_checkpoint(out)
     assert ck.class_names == names and len(ck.members) == 1
     assert ck.metrics["surveys"]["settings"]["surveys"] == 3 and ck.metrics["surveys"]["n_clouds"] == 36
+    assert ck.metrics["surveys"]["n_synthesized"] == 12  # a quarter of the stage's clouds
     assert ck.metrics["heldout_before_surveys"] == {"accuracy": 0.5}  # the start's report, kept under its name
     assert ck.metrics["heldout"]["thin"] and ck.metrics["heldout"]["n"] >= 8  # its held-out clouds classified again
     assert ck.calibration["shadow_tops_m"] == {"sphere": 1.0} and 0.3 <= ck.calibration["clutter_threshold"] <= 0.95

@@ -16,8 +16,9 @@ itself.
 The survey stage (``[surveys] surveys`` > 0 in the settings, or ``--surveys N``): after the synthesized clouds, the
 networks are trained on from their weights on the clouds recon makes of N simulated surveys drawn over the survey
 and acoustic space (:mod:`classify.training.survey_tuning`, :mod:`auvlink.evaluation.survey_clouds`; cached per
-survey), and the clutter threshold is calibrated on their validation split. ``auvlink train --from-checkpoint
-MODEL.pt --out OUT.pt`` runs that stage alone on an existing checkpoint's networks.
+survey; every ``ideal_every``-th under the idealized model), mixed with synthesized training clouds
+(``synthesized_share``), and the clutter threshold is calibrated on the survey clouds of their validation split.
+``auvlink train --from-checkpoint MODEL.pt --out OUT.pt`` runs that stage alone on an existing checkpoint's networks.
 
 ``auvlink train --export-inference MODEL.pt`` trains nothing: it writes the inference export ``MODEL.npz`` of an
 existing checkpoint (one saved before exports were written, or whose export is stale: made from another file of
@@ -159,14 +160,16 @@ def survey_clouds(synthesis: SynthesisSettings, cache: Path | None, progress: bo
     def make(s: SurveySettings, names: Sequence[str]) -> CloudSet:
         return survey_cloud_set(s.surveys, s.seed, names, n_points=synthesis.n_points, scale_m=synthesis.scale_m,
                                 z_ref=synthesis.z_ref, cache_dir=cache, workers=s.workers, progress=progress,
-                                acoustics=s.acoustics, sonar=s.sonar)
+                                acoustics=s.acoustics, sonar=s.sonar, ideal_every=s.ideal_every)
     return make
 
 
 def _print_surveys(m: dict[str, Any]) -> None:
     s = m["settings"]
+    ideal = f", every {s['ideal_every']}th ideal" if s.get("ideal_every") else ""
     print(f"survey stage: {m['n_clouds']} clouds of {s['surveys']} surveys (seed {s['seed']}, acoustics "
-          f"{s['acoustics']}, sonar {s['sonar']}) in {m['clouds_seconds']:.0f} s, trained {m['train_seconds']:.0f} s; "
+          f"{s['acoustics']}{ideal}, sonar {s['sonar']}) in {m['clouds_seconds']:.0f} s and "
+          f"{m.get('n_synthesized', 0)} synthesized, trained {m['train_seconds']:.0f} s; "
           f"validation accuracy {', '.join(f'{a:.3f}' for a in m['val_accuracy'])}")
 
 

@@ -15,8 +15,8 @@ what this adds is the whole chain between them and the classifier: the rendered 
 extension, seabed removal, clustering and the fusion of passes. Keep the draw seed apart from the seeds a model
 is evaluated on.
 
-Each survey's clouds are cached (``CACHE/surveys/KEY-NNNN.npz``, the key from the seed, the acoustic space, the
-sonar and the normalization), so a longer draw reuses a shorter one's surveys. Surveys run in ``workers``
+Each survey's clouds are cached (``CACHE/surveys/KEY-NNNN.npz``, the key from the seed, the survey's acoustic
+space, the sonar and the normalization), so a longer draw reuses a shorter one's surveys. Surveys run in ``workers``
 processes (spawned, one thread each); the clouds do not depend on the number of workers.
 """
 
@@ -118,17 +118,28 @@ def cache_key(seed: int, acoustics: str, sonar: str, n_points: int, scale_m: flo
     return hashlib.sha256(doc.encode()).hexdigest()[:16]
 
 
+def survey_space(index: int, acoustics: str, ideal_every: int) -> str:
+    """The acoustic space survey ``index`` is flown under: ``ideal`` for every ``ideal_every``-th survey
+    (indices ``ideal_every - 1``, ``2 ideal_every - 1``, ...; 0: none), else ``acoustics``."""
+    return "ideal" if ideal_every > 0 and index % ideal_every == ideal_every - 1 else acoustics
+
+
 def survey_cloud_set(n: int, seed: int, class_names: Sequence[str], *, n_points: int, scale_m: float, z_ref: str,
                      cache_dir: Path | None = None, workers: int = 2, progress: bool = True,
-                     acoustics: str = "random", sonar: str = "didson", small: bool = False) -> CloudSet:
-    """The clouds of ``n`` surveys of the draw ``seed`` (module docstring) as a :class:`CloudSet` (every cloud
-    ``measured``: recon's own seabed removal made it); objects of a class outside ``class_names`` are left out
-    (and clutter where ``class_names`` has none); ``small``: the smoke draw (2 lines, 2 objects a survey)."""
+                     acoustics: str = "random", sonar: str = "didson", small: bool = False,
+                     ideal_every: int = 0) -> CloudSet:
+    """The clouds of ``n`` surveys of the draw ``seed`` (module docstring; every ``ideal_every``-th flown under the
+    idealized model: :func:`survey_space`) as a :class:`CloudSet` (every cloud ``measured``: recon's own seabed
+    removal made it); objects of a class outside ``class_names`` are left out (and clutter where ``class_names``
+    has none); ``small``: the smoke draw (2 lines, 2 objects a survey)."""
     draws = draw_surveys(n, seed, small, sonar)
-    key = cache_key(seed, acoustics, sonar, n_points, scale_m, z_ref, small)
-    jobs = [CloudJob(d, draw_acoustics(acoustics, seed, d.index, d.window_length, d.sonar), n_points, scale_m, z_ref,
-                     None if cache_dir is None else Path(cache_dir) / "surveys" / f"{key}-{d.index:04d}.npz", seed)
-            for d in draws]
+    jobs = []
+    for d in draws:
+        space = survey_space(d.index, acoustics, ideal_every)
+        key = cache_key(seed, space, sonar, n_points, scale_m, z_ref, small)
+        cache = None if cache_dir is None else Path(cache_dir) / "surveys" / f"{key}-{d.index:04d}.npz"
+        jobs.append(CloudJob(d, draw_acoustics(space, seed, d.index, d.window_length, d.sonar), n_points, scale_m,
+                             z_ref, cache, seed))
     parts: list[dict[str, Any]] = []
     bar = progress_bar(total=len(jobs), enabled=progress, desc="survey clouds", leave=False)
     if workers <= 1 or len(jobs) <= 1:

@@ -45,6 +45,7 @@ _BOUNDS: dict[str, tuple[Any, ...]] = {
     "object_patch_lead_m": (0.0, 100.0), "object_patch_offset_m": ("gt", 0.0, 100.0),
     # as auvlink.cli.survey_options' MAX_SURVEYS and MAX_WORKERS (each survey minutes of work; 0: no survey stage)
     "surveys": (0, 10_000), "workers": (1, 256),
+    "ideal_every": (0, 10_000), "synthesized_share": (0.0, 0.95),  # 0.95: a stage of 20 synthesized clouds to one
 }
 #: bounds of each value of a [low, high] pair or a list (the pair itself must be in order)
 _BOUNDS.update({

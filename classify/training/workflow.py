@@ -31,7 +31,7 @@ from classify.training.config import TrainSettings
 from classify.training.dataset import CloudSet, MeshSource, catalog_meshes, heldout_settings, synthesize_set
 from classify.training.evaluate import EvalReport
 from classify.training.solid_tops import SHADOW_TOPS_SOURCE, solid_tops
-from classify.training.survey_tuning import SurveyClouds, tune_on_surveys
+from classify.training.survey_tuning import SurveyClouds, mixed_with_synthesized, tune_on_surveys
 from classify.training.synthesis import SynthesisSettings
 from classify.training.train import TrainResult, train
 
@@ -95,26 +95,34 @@ class SurveyStage:
 
 
 def survey_stage(models: Sequence[PointNet], settings: TrainSettings, names: Sequence[str],
-                 survey_clouds: SurveyClouds | None, progress: bool = True) -> SurveyStage:
+                 survey_clouds: SurveyClouds | None, synthesized: CloudSet | None = None,
+                 progress: bool = True) -> SurveyStage:
     """``models`` trained on from their weights on the clouds of ``settings.surveys`` simulated surveys
-    (:mod:`classify.training.survey_tuning`); ``survey_clouds`` makes them (the application layer's)."""
+    (:mod:`classify.training.survey_tuning`), with ``synthesized`` clouds (the synthesized training set) making up
+    ``[surveys] synthesized_share`` of them; ``survey_clouds`` makes the survey clouds (the application layer's)."""
     s = settings.surveys
     if survey_clouds is None:
         raise SynthesisError(f"[surveys] surveys = {s.surveys} needs the clouds of simulated surveys: run "
                              "`auvlink train`, or set surveys = 0")
+    if s.synthesized_share > 0 and synthesized is None:
+        raise SynthesisError(f"[surveys] synthesized_share = {s.synthesized_share} needs the synthesized training "
+                             "clouds: pass them, or set synthesized_share = 0")
     t0 = time.perf_counter()
-    data = survey_clouds(s, tuple(names))
+    surveys = survey_clouds(s, tuple(names))
     t_clouds = time.perf_counter() - t0
-    if len(data) < 2 * len(names):
-        raise SynthesisError(f"{s.surveys} surveys gave {len(data)} clouds, too few for {len(names)} classes: "
+    if len(surveys) < 2 * len(names):
+        raise SynthesisError(f"{s.surveys} surveys gave {len(surveys)} clouds, too few for {len(names)} classes: "
                              "draw more ([surveys] surveys)")
+    data, from_survey = mixed_with_synthesized(surveys, synthesized, s.synthesized_share, s.seed)
     tuned = tune_on_surveys(models, data, s, settings.train, progress)
-    counts = np.bincount(data.labels, minlength=len(names))
+    counts = np.bincount(surveys.labels, minlength=len(names))
     per_class = dict(zip(names, counts.tolist(), strict=True))
-    metrics = {"settings": s.to_dict(), "n_clouds": len(data), "clouds_per_class": per_class,
-               "clouds_seconds": t_clouds, "train_seconds": sum(r.seconds for r in tuned),
+    metrics = {"settings": s.to_dict(), "n_clouds": len(surveys), "n_synthesized": int((~from_survey).sum()),
+               "clouds_per_class": per_class, "clouds_seconds": t_clouds,
+               "train_seconds": sum(r.seconds for r in tuned),
                "val_accuracy": [r.val_accuracy for r in tuned], "best_epoch": [r.best_epoch for r in tuned]}
-    return SurveyStage([r.model for r in tuned], data.subset(tuned[0].val_idx), metrics)
+    val = tuned[0].val_idx
+    return SurveyStage([r.model for r in tuned], data.subset(val[from_survey[val]]), metrics)
 
 
 def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = None, progress: bool = True,
@@ -141,7 +149,7 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
     }
     calibration_set = data.subset(result.val_idx)
     if settings.surveys.surveys > 0:
-        stage = survey_stage([model, *members], settings, names, survey_clouds, progress)
+        stage = survey_stage([model, *members], settings, names, survey_clouds, data, progress)
         model, members, calibration_set = stage.models[0], stage.models[1:], stage.calibration_set
         metrics["surveys"] = stage.metrics
 
@@ -180,14 +188,20 @@ def heldout_set(synthesis: dict[str, Any] | SynthesisSettings, class_names: tupl
 
 
 def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey_clouds: SurveyClouds,
-                    cache_dir: Path | None = None, progress: bool = True) -> tuple[Path, dict[str, Any]]:
+                    cache_dir: Path | None = None, progress: bool = True,
+                    mesh_for: MeshSource | None = None) -> tuple[Path, dict[str, Any]]:
     """``auvlink train --from-checkpoint``: the survey stage alone on the networks of ``checkpoint`` (its classes,
     synthesis and training settings kept), its clutter threshold calibrated again on the survey clouds, and its
     held-out synthesized clouds (:func:`heldout_set`, thinned) classified again (the checkpoint's own held-out report
-    kept as ``heldout_before_surveys``); saved to ``out`` (with its inference export). Returns the path and the
-    metrics saved with it."""
+    kept as ``heldout_before_surveys``); saved to ``out`` (with its inference export). The synthesized clouds mixed
+    in (``[surveys] synthesized_share``) are the checkpoint's own training set, synthesized from its settings
+    (``mesh_for``: the catalogue's meshes unless given). Returns the path and the metrics saved with it."""
     ck = load_checkpoint(checkpoint)
-    stage = survey_stage([ck.model, *ck.members], settings, ck.class_names, survey_clouds, progress)
+    synthesized = None
+    if settings.surveys.synthesized_share > 0:  # the checkpoint's own training clouds (cached by their settings)
+        synthesized = synthesize_set(ck.class_names, mesh_for or catalog_meshes()[1],
+                                     SynthesisSettings.from_dict(ck.synthesis), cache_dir, progress)
+    stage = survey_stage([ck.model, *ck.members], settings, ck.class_names, survey_clouds, synthesized, progress)
     metrics = {**ck.metrics, "surveys": {**stage.metrics, "from_checkpoint": str(checkpoint)}}
     if "heldout" in ck.metrics:
         metrics["heldout_before_surveys"] = metrics.pop("heldout")
@@ -203,6 +217,6 @@ def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey
     calibration.update(clutter)
     metrics["calibration"] = calibration
     path = save(calibration)
-    held = heldout_set(ck.synthesis, ck.class_names, cache_dir, progress=progress, thin=True)
+    held = heldout_set(ck.synthesis, ck.class_names, cache_dir, progress=progress, mesh_for=mesh_for, thin=True)
     metrics["heldout"] = {"thin": True, **evaluate_classifier(Classifier.load(path), held).to_dict()}
     return save(calibration), metrics
