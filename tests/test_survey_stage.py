@@ -115,6 +115,7 @@ def test_the_stage_calibrates_on_survey_clouds_only() -> None:
 def test_surveys_settings_are_checked() -> None:
     s = load_train_settings()
     assert s.surveys.acoustics == "random" and s.surveys.seed == 31 and s.surveys.epochs > 0
+    assert s.surveys.surveys == 240 and s.surveys.ideal_every == 4 and s.surveys.synthesized_share == 0.5  # shipped
     assert load_train_settings(quick=True).surveys.surveys == 0  # --quick runs no survey stage
 
 
@@ -160,7 +161,8 @@ def test_from_checkpoint_runs_the_survey_stage_on_its_networks(tmp_path: Path) -
     nets = [PointNet(PointNetConfig(num_classes=len(names), width=0.125)) for _ in range(2)]
     start = save_checkpoint(tmp_path / "start.pt", nets[0], names, 64,
                             replace(load_train_settings().synthesis, headings_deg=(0.0, 120.0, 240.0),
-                                    tilts_deg=(25.0, 40.0), copies=1, n_points=128, object_patch_views=0).to_dict(),
+                                    tilts_deg=(25.0, 40.0), copies=1, n_points=128, object_patch_views=0,
+                                    clutter_clouds=8).to_dict(),
                             replace(CFG, batch_size=4).to_dict(), {"heldout": {"accuracy": 0.5}},
                             {"clutter_threshold": 0.6, "shadow_tops_m": {"sphere": 1.0}}, nets[1:])
     # the survey clouds from the cache (survey_cloud_set's own files; the harvest itself is tested above)
