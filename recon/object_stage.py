@@ -4,10 +4,11 @@ Points (world NED m) wait with their frame times and range arcs (:mod:`recon.ran
 (streaming: :meth:`ObjectStage.poll`) or the end (batch: :meth:`ObjectStage.finish`). Then the seabed is removed
 (the model fitted over the points' box by :meth:`recon.seabed_memory.SeabedMemory.fit`, the object points of
 :func:`recon.poll_seabed.object_points`), the rest clustered (:mod:`recon.cluster`, streaming through
-:class:`recon.cluster_stream.StreamingClusterer`), each object given the seabed depth under it and clutter
-rejected (:func:`recon.poll_seabed.on_seabed`), and, with the front-slope correction on, each final object's
-points moved up their arcs (:func:`recon.front_slope.replace_on_arcs`) and its centroid away from the sonar by
-the far side it could not see (:func:`recon.far_side.far_side_centre`).
+:class:`recon.cluster_stream.StreamingClusterer`), clusters seen at one instant dropped (:data:`ONE_INSTANT_S`),
+each object given the seabed depth under it and clutter rejected (:func:`recon.poll_seabed.on_seabed`), and, with
+the front-slope correction on, each final object's points moved up their arcs
+(:func:`recon.front_slope.replace_on_arcs`) and its centroid away from the sonar by the far side it could not see
+(:func:`recon.far_side.far_side_centre`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,20 @@ from recon.seabed_texture import TexturedSeabed
 
 F64 = NDArray[np.float64]
 
+#: the shortest ping interval of the sonars supported (s): the Oculus M-series' 40 pings/s (data sheet). A cluster
+#: whose points' times span less was seen at one instant (one ping, or a burst of pings a stalled link stamped on
+#: arrival): an interference stripe or a misplaced burst, never an object on the seabed, which stays in the fan
+#: while the vehicle crosses the fan's along-track footprint (metres: many pings at any supported rate)
+ONE_INSTANT_S = 0.025
+
+
+def persistent(rejected: dict[str, int], objects: list[DetectedObject]) -> list[DetectedObject]:
+    """The clusters seen over more than one instant (their points' times span :data:`ONE_INSTANT_S` or more); the
+    others counted in ``rejected["one_instant"]``."""
+    keep = [o for o in objects if o.t_last - o.t_first >= ONE_INSTANT_S]
+    rejected["one_instant"] = rejected.get("one_instant", 0) + len(objects) - len(keep)
+    return keep
+
 
 class ObjectStage:
     """Pending points, the streaming clusterer and the objects made so far (module docstring)."""
@@ -45,7 +60,7 @@ class ObjectStage:
         self._raw: list[F64] = []
         self._stream: StreamingClusterer | None = None
         self.seabed: TexturedSeabed | SeabedModel | None = None  # the model of the latest poll
-        self.rejected: dict[str, int] = {"too_wide": 0, "too_low": 0}
+        self.rejected: dict[str, int] = {"too_wide": 0, "too_low": 0, "one_instant": 0}
         self.objects: list[DetectedObject] = []
         self.seabed_removed = 0
         #: an object's extra elevation (rad) below the fan's edge from its points (recon.pattern_fall); None: none
@@ -176,7 +191,8 @@ class ObjectStage:
             self._stream = StreamingClusterer(self.config.cluster)
         p, t, e = self.take_pending()
         self._stream.add(p, t, e)
-        out = self._measured(self._finalize(self._on_seabed(self._stream.poll(vehicle_position, t_now))))
+        found = persistent(self.rejected, self._stream.poll(vehicle_position, t_now))
+        out = self._measured(self._finalize(self._on_seabed(found)))
         self.objects.extend(out)
         return out
 
@@ -188,7 +204,7 @@ class ObjectStage:
         else:
             self._stream.add(p, t, e)
             out = self._stream.flush()
-        out = self._measured(self._finalize(self._on_seabed(out)))
+        out = self._measured(self._finalize(self._on_seabed(persistent(self.rejected, out))))
         self.objects.extend(out)
         return out
 

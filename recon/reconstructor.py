@@ -220,7 +220,7 @@ class Reconstructor:
 
     @property
     def rejected(self) -> dict[str, int]:
-        """Clusters that were not objects, by reason (``too_wide``, ``too_low``)."""
+        """Clusters that were not objects, by reason (``too_wide``, ``too_low``, ``one_instant``)."""
         return self._objects.rejected
 
     @property
