@@ -95,6 +95,8 @@ def test_synthesized_clouds_make_up_their_share_and_stay_apart() -> None:
     assert same is surveys and mask.all()
     with pytest.raises(ValueError, match="z_ref"):
         mixed_with_synthesized(surveys, replace(synthesized, z_ref="mean"), 0.5, seed=3)
+    with pytest.raises(ValueError, match="share"):
+        mixed_with_synthesized(surveys, synthesized, 1.0, seed=3)
 
 
 def test_the_stage_calibrates_on_survey_clouds_only() -> None:

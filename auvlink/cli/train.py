@@ -166,7 +166,7 @@ def survey_clouds(synthesis: SynthesisSettings, cache: Path | None, progress: bo
 
 def _print_surveys(m: dict[str, Any]) -> None:
     s = m["settings"]
-    ideal = f", every {s['ideal_every']}th ideal" if s.get("ideal_every") else ""
+    ideal = f", 1 in {s['ideal_every']} ideal" if s.get("ideal_every") else ""
     print(f"survey stage: {m['n_clouds']} clouds of {s['surveys']} surveys (seed {s['seed']}, acoustics "
           f"{s['acoustics']}{ideal}, sonar {s['sonar']}) in {m['clouds_seconds']:.0f} s and "
           f"{m.get('n_synthesized', 0)} synthesized, trained {m['train_seconds']:.0f} s; "

@@ -71,8 +71,10 @@ def mixed_with_synthesized(surveys: CloudSet, synthesized: CloudSet | None, shar
     """The survey clouds with synthesized clouds drawn (without replacement, seeded by ``seed``) to make up
     ``share`` of the whole, and which clouds of the whole are survey clouds. The synthesized clouds must be
     normalized alike (points per cloud, ``scale_m``, ``z_ref``) and name the same classes."""
+    if not 0.0 <= share < 1.0:
+        raise ValueError(f"synthesized share {share}: expected 0 <= share < 1")
     n = len(surveys)
-    if synthesized is None or share <= 0.0 or not len(synthesized):
+    if synthesized is None or share == 0.0 or not len(synthesized):
         return surveys, np.ones(n, bool)
     if _form(synthesized) != _form(surveys):
         raise ValueError(f"synthesized clouds (classes, points, scale_m, z_ref) {_form(synthesized)} differ from "

@@ -197,10 +197,11 @@ def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey
     in (``[surveys] synthesized_share``) are the checkpoint's own training set, synthesized from its settings
     (``mesh_for``: the catalogue's meshes unless given). Returns the path and the metrics saved with it."""
     ck = load_checkpoint(checkpoint)
+    mesh_for = mesh_for or catalog_meshes()[1]
     synthesized = None
     if settings.surveys.synthesized_share > 0:  # the checkpoint's own training clouds (cached by their settings)
-        synthesized = synthesize_set(ck.class_names, mesh_for or catalog_meshes()[1],
-                                     SynthesisSettings.from_dict(ck.synthesis), cache_dir, progress)
+        synthesized = synthesize_set(ck.class_names, mesh_for, SynthesisSettings.from_dict(ck.synthesis), cache_dir,
+                                     progress)
     stage = survey_stage([ck.model, *ck.members], settings, ck.class_names, survey_clouds, synthesized, progress)
     metrics = {**ck.metrics, "surveys": {**stage.metrics, "from_checkpoint": str(checkpoint)}}
     if "heldout" in ck.metrics:
