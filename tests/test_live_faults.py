@@ -98,6 +98,8 @@ def test_a_stalled_sonar_socket_delays_then_bursts_and_the_run_carries_on(
     assert not _events(out, "port_silent", "dvl")  # (the DVL's port was closed, not silent)
     assert log_info(out / "mission.mcap")["channels"]["sonar"]["max_gap_s"] > 1.2
     assert result.latency["frame_end_to_end"]["p50_ms"] < 200.0  # nobody waited for the stalled socket
+    # the burst's frames kept (the queue's) are timed by their pings, not at their one arrival
+    assert result.recon_stats["frames_timed_by_ping"] >= 1
 
 
 def test_the_faulty_run_still_finds_the_objects_and_replays_to_the_same(

@@ -3,7 +3,8 @@
 One engine serves ``auvlink live`` (fed from the drivers) and ``auvlink replay`` / ``demo`` (fed from
 the log). :meth:`Engine.feed` buffers decoded samples; :meth:`Engine.advance` releases those older
 than a watermark (live: every driver has handed over everything it received before it; replay: the
-time of the sample being read), in ``(receive time, arrival)`` order:
+time of the sample being read), in ``(receive time, arrival)`` order (a sonar frame's time is its ping's on the
+host clock, :mod:`auvlink.pipeline.sensor_clock`):
 
 1. navigation samples go to :class:`recon.nav_stream.CausalNavigator` (a pose at t uses samples up
    to t only, and is the same number however the samples were grouped);
@@ -79,7 +80,8 @@ class Engine:
         self.hooks = hooks or EngineHooks()
         self.strip_picker = strip or StripPicker()
         self.times = StageTimes()
-        self.counts = {"frames": 0, "frames_processed": 0, "frames_without_navigation": 0, "polls": 0}
+        self.counts = {"frames": 0, "frames_processed": 0, "frames_without_navigation": 0, "polls": 0,
+                       "frames_timed_by_ping": 0}
         self.rec: Reconstructor | None = None
         self.geometry: SonarGeometry | None = None  # recon's: the frames' pooled to its sampling
         self.pooling, self._frame_shape = ImagePooling(), (0, 0)  # (range lines, beams) of the frames
@@ -166,6 +168,7 @@ class Engine:
         a poll when ``poll_s`` of mission time has passed; returns the frames reconstructed."""
         t_start = time.perf_counter()
         self.counts["frames"] += len(group)
+        self.counts["frames_timed_by_ping"] += sum(fr.received_ns > t for t, fr in group)
         times = np.array([self.inbox.seconds(t) for t, _ in group])
         ok = survey_frames(self.nav, times, self.config, self.counts)
         for (_, fr), t in zip(group, times, strict=True):
@@ -192,8 +195,9 @@ class Engine:
         self._t_last = max(self._t_last, float(ts.max()))
         if self.hooks.clock is not None:
             now = self.hooks.clock()
-            for i in sel:
-                self.times.add("frame_end_to_end", (now - group[int(i)][0]) * 1e-9)
+            for i in sel:  # from the frame's receipt (its event time is its ping's)
+                _, fr = group[int(i)]
+                self.times.add("frame_end_to_end", (now - (fr.received_ns or group[int(i)][0])) * 1e-9)
         self._poll_when_due(rec)
         return int(sel.size)
 

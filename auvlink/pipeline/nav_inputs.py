@@ -24,7 +24,9 @@ that sends no GGA; ZDA none)                   (deg, NaN without a fix), height 
 Every other format (the CAN navigation bus, PD6 lines, the DSP-3000 integrated angle) gives no event:
 :data:`ROUTES` is the table above, :data:`CONSUMED_FORMATS` its formats, and replay decodes only the
 channels of these formats. The order key ``(t_ns, seq)`` is the host receive time, then the arrival
-order, so a log replays in the order the live run saw. :func:`nav_inputs` turns a run of events into
+order, so a log replays in the order the live run saw; a sonar frame's time is its ping's, mapped to the host clock
+(:class:`auvlink.pipeline.sensor_clock.SensorClock`: a burst of frames keeps the pings' spacing), its receive
+time kept in its payload. :func:`nav_inputs` turns a run of events into
 the arrays of :mod:`recon.nav` (times in s relative to a mission origin ``t0_ns``, so float64 keeps
 sub-microsecond resolution over long missions); the streaming engine calls it per block, the batch
 path once.
@@ -39,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from auvlink.codecs import keller, oculus
+from auvlink.pipeline.sensor_clock import SensorClock
 from auvlink.records import Sample
 from recon.errors import GeometryError
 from recon.frames import VelocityFrame
@@ -64,7 +67,7 @@ GyroKind = Literal["rate", "delta"]
 
 
 class Event(NamedTuple):
-    t_ns: int  # host receive time, ns
+    t_ns: int  # host receive time, ns (a sonar frame: its ping's time on the host clock, SensorClock)
     seq: int  # arrival order (1, 2, ...) among the events of one adaptor
     kind: str  # dvl | gyro | depth | sonar | gnss
     payload: Any  # DvlPayload | (3,) gyro tuple | pressure Pa | SonarPayload
@@ -85,6 +88,7 @@ class SonarPayload(NamedTuple):
     image: NDArray[np.uint8]  # (range bins, beams)
     window: tuple[float, float]  # (start, length) m
     azimuths: NDArray[np.float64]  # (beams,) rad
+    received_ns: int = 0  # host receive time, ns (the event's time is the ping's: SensorClock)
 
 
 class NavInputs(NamedTuple):
@@ -107,6 +111,8 @@ class NavAdaptor:
         self.counts: dict[str, int] = {}
         self._keller_request: dict[int, keller.KellerReadRequest] = {}
         self._gga_devices: set[str] = set()
+        #: device -> the clock that times its sonar frames by their pings (:mod:`auvlink.pipeline.sensor_clock`)
+        self.sonar_clocks: dict[str, SensorClock] = {}
         self._routes: dict[str, tuple[str, Callable[[Any, str], Any]]] = {
             fmt: (kind, getattr(self, method)) for fmt, (kind, method) in ROUTES.items()}
 
@@ -121,6 +127,10 @@ class NavAdaptor:
         if payload is None:
             return None
         self.seq += 1
+        if kind == "sonar":
+            clock = self.sonar_clocks.setdefault(s.device, SensorClock())
+            t_ns = clock.host_ns(s.t_host_ns, ping_time_s(s))
+            return Event(t_ns, self.seq, kind, payload._replace(received_ns=s.t_host_ns))
         return Event(s.t_host_ns, self.seq, kind, payload)
 
     def nav_inputs(self, events: Sequence[Event], t0_ns: int) -> NavInputs:
@@ -186,6 +196,15 @@ class NavAdaptor:
             image = (image >> (8 * (image.dtype.itemsize - 1))).astype(np.uint8)
         return SonarPayload(device, image, (0.0, r.n_ranges * float(r.range_resolution_m)),
                             np.asarray(r.bearings_rad, dtype=np.float64))
+
+
+def ping_time_s(s: Sample) -> float | None:
+    """The sonar's own time of a frame's ping (s, the sonar clock's origin): a DIDSON's or ARIS's frame time, an
+    Oculus V2 ping's start time since power-up (a V1 ping's counter has no stated unit: None)."""
+    r = s.record
+    if isinstance(r, oculus.OculusPing):
+        return float(r.ping_start_time) if r.header.msg_version == 2 else None
+    return s.t_sensor
 
 
 def _times(events: Sequence[Event], t0_ns: int) -> NDArray[np.float64]:
