@@ -109,7 +109,7 @@ def write_inference_export(path: Path, models: Sequence[PointNet], class_names: 
         "z_ref": str(synthesis.get("z_ref") or "mean"),
         "clutter_threshold": None if threshold is None else float(threshold),
         "input_transform": cfg.input_transform, "feature_transform": cfg.feature_transform, "members": len(folded),
-        "shadow_tops_m": calibration.get("shadow_tops_m")})
+        "shadow_tops_m": calibration.get("shadow_tops_m"), "decision": calibration.get("decision")})
     return write_export(export_path(path), meta, layers)
 
 

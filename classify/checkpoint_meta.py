@@ -31,6 +31,7 @@ import torch
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 
 from auvlink.validation import Boolean, Integer, Number
+from classify.decision import DecisionMeta
 from classify.errors import CheckpointError
 from classify.pointnet import PointNetConfig
 
@@ -103,6 +104,8 @@ class CalibrationMeta(BaseModel):
     #: m: the top height of each class of solid shape (classify.shadow_height), and where they came from
     shadow_tops_m: dict[ClassName, Annotated[Number, Field(gt=0.0, le=MAX_SCALE_M)]] | None = None
     shadow_tops_source: str | None = None
+    #: the decision over the network's probabilities and each object's evidence (classify.decision)
+    decision: DecisionMeta | None = None
 
 
 class CheckpointMeta(BaseModel):

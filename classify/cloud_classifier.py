@@ -2,8 +2,9 @@
 normalize a cloud, batch clouds, and decide the class (or ``clutter``) from the probabilities.
 
 :class:`CloudClassifier` holds a checkpoint's inference settings (class names, points per cloud, normalization
-``scale_m`` / ``z_ref``, clutter threshold, yaw views); a subclass supplies the forward pass of one batch of
-normalized clouds (:meth:`CloudClassifier.batch_probabilities`): :class:`classify.infer.Classifier` with PyTorch,
+``scale_m`` / ``z_ref``, clutter threshold, yaw views, the decision model over each object's evidence,
+:mod:`classify.decision`); a subclass supplies the forward pass of one batch of normalized clouds
+(:meth:`CloudClassifier.batch_probabilities`): :class:`classify.infer.Classifier` with PyTorch,
 :class:`classify.numpy_infer.NumpyClassifier` with NumPy from an inference export. The pre- and post-processing
 below is theirs alike. See :mod:`classify.infer` for what a classification is (subsampling, seabed reference, yaw
 views, clutter rule).
@@ -12,12 +13,14 @@ views, clutter rule).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from classify.errors import InvalidCloudError
+from classify.decision import DecisionMeta, DecisionModel
+from classify.errors import CheckpointError, InvalidCloudError
 from classify.labels import CLUTTER
 from classify.normalize import normalize_cloud
 from classify.shadow_height import weighed
@@ -68,7 +71,8 @@ class CloudClassifier:
 
     def __init__(self, class_names: Sequence[str], n_points: int, scale_m: float, z_ref: str,
                  clutter_threshold: float | None, yaw_views: int = YAW_VIEWS,
-                 shadow_tops: Mapping[str, float] | None = None) -> None:
+                 shadow_tops: Mapping[str, float] | None = None,
+                 decision: DecisionMeta | Mapping[str, object] | None = None) -> None:
         if yaw_views < 1:
             raise ValueError(f"yaw_views must be >= 1, got {yaw_views}")
         self.yaw_views = int(yaw_views)
@@ -82,6 +86,16 @@ class CloudClassifier:
         #: m: the top height of each class of solid shape, weighed against an object's shadow height in
         #: :meth:`decide` (:mod:`classify.shadow_height`; None or empty: never)
         self.shadow_tops = dict(shadow_tops) if shadow_tops else None
+        #: the decision over the network's probabilities and each object's evidence (:mod:`classify.decision`): what
+        #: :meth:`decide` applies when it is given the evidence; None: the network's probabilities and the shadow
+        #: heights' weights decide
+        self.decision: DecisionModel | None = None
+        if decision is not None:
+            try:
+                self.decision = DecisionModel.from_meta(
+                    decision if isinstance(decision, DecisionMeta) else dict(decision), self.class_names)
+            except ValueError as exc:
+                raise CheckpointError(f"calibration.decision: {exc}") from exc
 
     @property
     def object_classes(self) -> tuple[str, ...]:
@@ -136,21 +150,42 @@ class CloudClassifier:
             out[i:i + len(chunk)] = self.batch_probabilities(np.stack([pad_by_repeating(p, n) for p in chunk]))
         return out
 
-    def decide(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True,
-               shadow_heights: Sequence[float] | None = None) -> list[tuple[str, float]]:
-        """``(class_name, score)`` per row of probabilities ``(n, k)``: ``clutter`` with its probability where that
-        reaches :attr:`clutter_threshold` (and ``allow_clutter``, per row or for all), else the most probable
-        object class with its probability, weighed by the object's ``shadow_heights`` (m, one per row, NaN: none;
-        :func:`classify.shadow_height.weighed` with :attr:`shadow_tops`) when given."""
+    def set_clutter_threshold(self, threshold: float) -> None:
+        """Call clutter from ``threshold`` on (``math.inf``: never), the network's rule and the decision's alike."""
+        self.clutter_threshold = float(threshold)
+        if self.decision is not None:
+            self.decision = replace(self.decision, clutter_threshold=float(threshold))
+
+    def decision_probabilities(self, prob: npt.NDArray[np.float32],
+                               evidence: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
+        """The probabilities :meth:`decide` applies its rule to: the :attr:`decision`'s over ``prob`` and the
+        objects' ``evidence`` (``(n, len(classify.decision.EVIDENCE))``) when both are there, else ``prob``."""
         p = np.asarray(prob, dtype=np.float64).reshape(-1, len(self.class_names))
+        if self.decision is None or evidence is None:
+            return p
+        return self.decision.probabilities(p, evidence)
+
+    def decide(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True,
+               shadow_heights: Sequence[float] | None = None,
+               evidence: npt.ArrayLike | None = None) -> list[tuple[str, float]]:
+        """``(class_name, score)`` per row of probabilities ``(n, k)``: ``clutter`` with its probability where that
+        reaches the clutter threshold (and ``allow_clutter``, per row or for all), else the most probable object
+        class with its probability. With the objects' ``evidence`` and a :attr:`decision`, the decision's
+        probabilities and threshold (:meth:`decision_probabilities`); else the network's and
+        :attr:`clutter_threshold`, the object classes weighed by the objects' ``shadow_heights`` (m, one per row,
+        NaN: none; :func:`classify.shadow_height.weighed` with :attr:`shadow_tops`) when given."""
+        p = self.decision_probabilities(prob, evidence)
         allow = np.broadcast_to(np.asarray(allow_clutter, dtype=bool), (p.shape[0],))
+        decided = self.decision is not None and evidence is not None
+        threshold = self.decision.clutter_threshold if decided and self.decision else self.clutter_threshold
         obj = p.copy()
         if self.clutter_index is not None:
             obj[:, self.clutter_index] = 0.0
-        obj = weighed(obj, shadow_heights, self.class_names, self.shadow_tops)
+        if not decided:
+            obj = weighed(obj, shadow_heights, self.class_names, self.shadow_tops)
         clutter = np.zeros(p.shape[0], bool)
         if self.clutter_index is not None:
-            clutter = allow & (p[:, self.clutter_index] >= self.clutter_threshold)
+            clutter = allow & (p[:, self.clutter_index] >= threshold)
             obj[:, self.clutter_index] = -1.0
         ks = np.where(clutter, self.clutter_index if self.clutter_index is not None else 0, obj.argmax(axis=1))
         return [(self.class_names[int(k)], float(p[i, k] if clutter[i] else obj[i, k])) for i, k in enumerate(ks)]

@@ -72,7 +72,7 @@ class Classifier(CloudClassifier):
         super().__init__(ckpt.class_names, ckpt.n_points, float(ckpt.synthesis.get("scale_m", 0.0) or 0.0),
                          str(ckpt.synthesis.get("z_ref", "mean") or "mean"),
                          ckpt.calibration.get("clutter_threshold"), yaw_views,  # a probability (checked on load)
-                         ckpt.calibration.get("shadow_tops_m"))
+                         ckpt.calibration.get("shadow_tops_m"), ckpt.calibration.get("decision"))
         self.device = device or default_device()
         self.checkpoint = ckpt
         #: the network (an :class:`classify.ensemble.Ensemble` when the checkpoint holds several seeds' models)

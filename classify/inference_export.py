@@ -6,7 +6,8 @@ The file is a NumPy ``.npz`` (read with ``allow_pickle=False``: arrays only, no 
   from (``source_sha256``), the class names, points per cloud, the normalization (``scale_m`` m, ``z_ref``), the
   calibrated ``clutter_threshold`` (null: the default), the architecture switches (``input_transform``,
   ``feature_transform``), the number of ensemble members and the solid classes' top heights (``shadow_tops_m``,
-  :mod:`classify.shadow_height`; absent: none);
+  :mod:`classify.shadow_height`; absent: none) and the decision model (``decision``, :mod:`classify.decision`;
+  absent: none);
 * per linear layer of :class:`classify.pointnet.PointNet` (its ``state_dict`` name less ``.linear``/``.weight``,
   e.g. ``mlp2.2``, ``feature_tnet.fc.0``, ``classifier``): ``NAME.weight`` ``(members, out, in)`` and
   ``NAME.bias`` ``(members, out)`` float32, every batch norm folded into its layer
@@ -32,6 +33,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from auvlink.atomic import atomic_path
 from auvlink.file_digest import sha256_file
+from classify.decision import DecisionMeta
 from classify.errors import CheckpointError
 
 FORMAT: Final = "auvlink.classify.pointnet-inference/1"
@@ -61,6 +63,8 @@ class ExportMeta(BaseModel):
     members: Annotated[int, Field(ge=1, le=MAX_MEMBERS)]
     #: m: the top height of each class of solid shape (classify.shadow_height); absent: none
     shadow_tops_m: dict[str, Annotated[float, Field(gt=0.0, le=100.0)]] | None = None
+    #: the decision over the network's probabilities and the object's evidence (classify.decision); absent: none
+    decision: DecisionMeta | None = None
 
 
 @dataclass(frozen=True)

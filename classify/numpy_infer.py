@@ -164,7 +164,7 @@ class NumpyClassifier(CloudClassifier):
                  threads: int | None = None) -> None:
         m = export.meta
         super().__init__(m.class_names, m.n_points, m.scale_m, m.z_ref, m.clutter_threshold, yaw_views,
-                         m.shadow_tops_m)
+                         m.shadow_tops_m, m.decision)
         self.export = export
         self.source = source
         self.threads = threads

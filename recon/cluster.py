@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from recon.errors import ReconError
 from recon.fusion import FusionConfig
+from recon.shadow import ShadowReading
 
 F64 = NDArray[np.float64]
 
@@ -63,6 +64,7 @@ class DetectedObject:
     seabed_depth: float = float("nan")  # m, NED: the seabed under the object (recon's model of the poll)
     passes: tuple[tuple[float, float], ...] = ()  # time spans (s) of the passes fused into it (recon.fusion)
     shadow_height: float = float("nan")  # m: its top over the seabed from its acoustic shadows (recon.shadow)
+    shadow: ShadowReading = field(default_factory=ShadowReading)  # its shadows' and the seabed's (recon.shadow)
 
     @property
     def size(self) -> F64:

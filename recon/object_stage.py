@@ -30,6 +30,7 @@ from recon.recon_config import ReconConfig
 from recon.seabed import SeabedModel
 from recon.seabed_memory import SeabedMemory
 from recon.seabed_texture import TexturedSeabed
+from recon.shadow import ShadowReading
 
 F64 = NDArray[np.float64]
 
@@ -65,8 +66,9 @@ class ObjectStage:
         self.seabed_removed = 0
         #: an object's extra elevation (rad) below the fan's edge from its points (recon.pattern_fall); None: none
         self.below_edge: Callable[[F64], float] | None = None
-        #: an object's top height over the seabed (m) from its points' footprint (recon.shadow); None: not measured
-        self.shadow_height: Callable[[F64], float] | None = None
+        #: the shadow reading of an object (its top height over the seabed, m, ...) from its points' footprint
+        #: (recon.shadow); None: not measured
+        self.shadow_reading: Callable[[F64], ShadowReading] | None = None
 
     def add(self, points: F64, times: F64, arcs: F64) -> None:
         """Points (N, 3), their frame times (N,) and range arcs (N, 10, or (N, 0) without the front-slope
@@ -163,10 +165,14 @@ class ObjectStage:
         return out
 
     def _measured(self, objects: list[DetectedObject]) -> list[DetectedObject]:
-        """Final objects with the top height their shadows give (:attr:`shadow_height`)."""
-        if self.shadow_height is None:
+        """Final objects with what their shadows say (:attr:`shadow_reading`): the reading and its top height."""
+        if self.shadow_reading is None:
             return objects
-        return [replace(o, shadow_height=self.shadow_height(o.points)) for o in objects]
+        out = []
+        for o in objects:
+            r = self.shadow_reading(o.points)
+            out.append(replace(o, shadow_height=r.height, shadow=r))
+        return out
 
     def _below_edge(self, o: DetectedObject) -> tuple[F64, F64 | None]:
         """The object's points re-placed on their arcs below the elevation each was placed at, and those elevations

@@ -92,7 +92,7 @@ class Reconstructor:
         if self.config.calibrate and self.config.below_edge:
             self._objects.below_edge = self._below_edge
         if self.config.calibrate and self.config.shadow_height:
-            self._objects.shadow_height = self.shadows.height
+            self._objects.shadow_reading = self.shadows.reading
         self.frames = 0
         self.frames_with_points = 0
         #: frames with a band bright across most of the fan before the seabed (interference; no points from it)

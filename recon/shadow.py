@@ -29,6 +29,7 @@ it stands out of the shadow tops of the seabed around (a rough seabed, or a sand
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -88,6 +89,9 @@ TOP_QUANTILE = 0.9
 #: own shadow, read where its rounded or far side ends, not the seabed's)
 RING_M = 3.0
 BACKGROUND_MARGIN_M = 0.1
+#: the quantiles of the shadow tops' heights a reading reports, over the footprint and over the ring (the classifier's
+#: evidence of how the tops spread: a rounded top reads low off its crest, a rough seabed's own shadows reach high)
+READING_QUANTILES = (0.5, 0.75, TOP_QUANTILE)
 #: m of path the shadow tops are kept for (an object is finalized after the vehicle passed it; 100 m covers the
 #: slowest finalization of recon.cluster_stream)
 KEEP_M = 100.0
@@ -128,6 +132,27 @@ def _crosses(a: F64, b: F64, lo: F64, hi: F64) -> NDArray[np.bool_]:
     far = np.where(d == 0, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2))
     t_in, t_out = near.max(axis=1), far.min(axis=1)
     return (t_in <= t_out) & (t_out >= 0.0) & (t_in <= 1.0)
+
+
+@dataclass(frozen=True)
+class ShadowReading:
+    """What the shadow tops say of one object (:meth:`ShadowTops.reading`): its top height (m, NaN: not measured),
+    the :data:`READING_QUANTILES` of the heights of the shadow tops over its footprint and of those in the ring of
+    seabed around it (m; NaN with fewer than :data:`MIN_TOPS`), and how many tops each holds."""
+
+    height: float = math.nan
+    footprint_quantiles_m: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    ring_quantiles_m: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    footprint_tops: int = 0
+    ring_tops: int = 0
+
+
+def _quantiles(heights: F64) -> tuple[float, float, float]:
+    """The :data:`READING_QUANTILES` of ``heights`` (m); NaN with fewer than :data:`MIN_TOPS`."""
+    if heights.size < MIN_TOPS:
+        return (math.nan, math.nan, math.nan)
+    a, b, c = (float(v) for v in np.quantile(heights, READING_QUANTILES))
+    return (a, b, c)
 
 
 class ShadowTops:
@@ -245,30 +270,37 @@ class ShadowTops:
         return np.column_stack([world[ok, :2], h[ok]])
 
     def height(self, points: F64) -> float:
-        """An object's top height over the seabed (m) from its points (N, 3, world NED): the
-        :data:`TOP_QUANTILE` of the heights of the shadow tops over the points' box widened by
-        :data:`FOOTPRINT_M`; NaN with fewer than :data:`MIN_TOPS` there, or when it does not stand
-        :data:`BACKGROUND_MARGIN_M` above the same quantile of the seabed's shadow tops in the ring
-        :data:`RING_M` around (with :data:`MIN_TOPS` there)."""
+        """An object's top height over the seabed (m) from its points (N, 3, world NED): :attr:`ShadowReading.height`
+        of :meth:`reading`."""
+        return self.reading(points).height
+
+    def reading(self, points: F64) -> ShadowReading:
+        """What the shadow tops say of an object with points (N, 3, world NED): its top height, the
+        :data:`TOP_QUANTILE` of the heights of the shadow tops over the points' box widened by :data:`FOOTPRINT_M`
+        (NaN with fewer than :data:`MIN_TOPS` there, or when it does not stand :data:`BACKGROUND_MARGIN_M` above the
+        same quantile of the seabed's shadow tops in the ring :data:`RING_M` around, with :data:`MIN_TOPS` there),
+        and the quantiles and counts of both sets of tops (:class:`ShadowReading`)."""
         p = np.asarray(points, np.float64).reshape(-1, 3)
         if p.shape[0] == 0 or not self._tops:
             self.outcomes["too_few_shadows"] += 1
-            return float("nan")
+            return ShadowReading()
         t = self.tops
         lo, hi = p[:, :2].min(axis=0) - FOOTPRINT_M, p[:, :2].max(axis=0) + FOOTPRINT_M
         inside = np.all((t[:, :2] >= lo) & (t[:, :2] <= hi), axis=1)
-        if int(inside.sum()) < MIN_TOPS:
-            self.outcomes["too_few_shadows"] += 1
-            return float("nan")
-        top = float(np.quantile(t[inside, 2], TOP_QUANTILE))
         near = np.all((t[:, :2] >= lo - FOOTPRINT_M) & (t[:, :2] <= hi + FOOTPRINT_M), axis=1)
         ring = np.all((t[:, :2] >= lo - RING_M) & (t[:, :2] <= hi + RING_M), axis=1) & ~near
         ring[ring] = ~_crosses(t[ring, :2], t[ring, 4:6], lo, hi)  # the object's own shadow is not the seabed's
-        if int(ring.sum()) >= MIN_TOPS and top < float(np.quantile(t[ring, 2], TOP_QUANTILE)) + BACKGROUND_MARGIN_M:
+        own, around = t[inside, 2], t[ring, 2]
+        reading = ShadowReading(math.nan, _quantiles(own), _quantiles(around), int(own.size), int(around.size))
+        if own.size < MIN_TOPS:
+            self.outcomes["too_few_shadows"] += 1
+            return reading
+        top = float(np.quantile(own, TOP_QUANTILE))
+        if around.size >= MIN_TOPS and top < float(np.quantile(around, TOP_QUANTILE)) + BACKGROUND_MARGIN_M:
             self.outcomes["not_above_seabed"] += 1
-            return float("nan")
+            return reading
         self.outcomes["measured"] += 1
-        return top
+        return replace(reading, height=top)
 
     @property
     def tops(self) -> F64:

@@ -11,8 +11,16 @@ import pytest
 import torch
 
 from auvlink.evaluation.draw import draw_surveys
-from auvlink.evaluation.survey_clouds import MATCH_M, cache_key, label_objects, survey_cloud_set, survey_space
+from auvlink.evaluation.survey_clouds import (
+    MATCH_M,
+    cache_key,
+    label_objects,
+    survey_cloud_set,
+    survey_object_set,
+    survey_space,
+)
 from classify.checkpoint import load_checkpoint, save_checkpoint
+from classify.decision import EVIDENCE
 from classify.labels import CLUTTER
 from classify.pointnet import PointNet, PointNetConfig
 from classify.training.config import TrainSettings, load_train_settings
@@ -152,6 +160,18 @@ def test_survey_clouds_are_recons_clusters_labelled_by_the_truth(tmp_path: Path)
     assert len(cached) == 2
     again = survey_cloud_set(2, 5, names, **kw)  # from the cache
     assert np.array_equal(again.points, data.points) and np.array_equal(again.labels, data.labels)
+    # each object's evidence for the decision model, from the same files
+    objects, evidence = survey_object_set(2, 5, names, **kw)
+    assert np.array_equal(objects.points, data.points) and evidence.shape == (len(data), len(EVIDENCE))
+    ev = {k: evidence[:, i] for i, k in enumerate(EVIDENCE)}
+    assert (ev["n_points"] >= 25).all() and (ev["length_m"] > 0).all() and (ev["span_s"] >= 0).all()
+    assert np.isfinite(ev["top_m"]).all() and (ev["top_m"] > 0).all()  # objects stand above the seabed
+    # a cache file written before the evidence was stored is harvested again when the evidence is asked for
+    with np.load(cached[0]) as z:
+        old = {k: z[k] for k in z.files if k != "evidence"}
+    np.savez(cached[0], **old)
+    _, again_ev = survey_object_set(2, 5, names, **kw)
+    assert np.array_equal(again_ev, evidence) and "evidence" in np.load(cached[0]).files
 
 
 @pytest.mark.slow

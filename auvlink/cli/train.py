@@ -20,6 +20,12 @@ survey; every ``ideal_every``-th under the idealized model), mixed with synthesi
 (``synthesized_share``), and the clutter threshold is calibrated on the survey clouds of their validation split.
 ``auvlink train --from-checkpoint MODEL.pt --out OUT.pt`` runs that stage alone on an existing checkpoint's networks.
 
+The decision stage (``[decision] surveys`` > 0, or ``--decision-surveys N``): once the networks are final, the
+decision model over their probabilities and each object's evidence (shadow height and readings, extent, top, points,
+time span; :mod:`classify.decision`) is fitted on the objects recon finalizes in N simulated surveys of their own
+seed (:mod:`classify.training.decision_fit`; cached per survey). ``auvlink train --fit-decision MODEL.pt --out
+OUT.pt`` fits it alone on an existing checkpoint; ``--from-checkpoint`` fits it after the survey stage.
+
 ``auvlink train --export-inference MODEL.pt`` trains nothing: it writes the inference export ``MODEL.npz`` of an
 existing checkpoint (one saved before exports were written, or whose export is stale: made from another file of
 that name). An existing ``MODEL.npz`` is replaced only with ``--force``.
@@ -39,21 +45,25 @@ folder, removed). Keep the calibration seed apart from the seeds you evaluate th
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from auvlink.atomic import check_output_dir, check_output_file
 from auvlink.cli.survey_options import check_survey_options
+from auvlink.cli.train_stages import (
+    fit_decision,
+    from_checkpoint,
+    print_decision,
+    print_surveys,
+    survey_clouds,
+    survey_objects,
+)
 from auvlink.errors import AuvlinkError
 from auvlink.sim.acoustics import PROFILES
 from classify.inference_export import export_path, matching_export
 
 if TYPE_CHECKING:
-    from classify.training.config import TrainSettings
-    from classify.training.dataset import CloudSet
-    from classify.training.survey_tuning import SurveyClouds, SurveySettings
-    from classify.training.synthesis import SynthesisSettings
+    from classify.training.survey_tuning import SurveySettings
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -90,6 +100,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--surveys", type=int, default=None, metavar="N",
                    help="override [surveys] surveys: the simulated surveys whose recon clouds the networks are trained "
                         "on after the synthesized clouds (0: none)")
+    p.add_argument("--decision-surveys", type=int, default=None, metavar="N",
+                   help="override [decision] surveys: the simulated surveys whose objects fit the decision model "
+                        "over the networks' probabilities and each object's evidence (0: none)")
+    p.add_argument("--fit-decision", type=Path, default=None, metavar="MODEL.pt",
+                   help="train no network: fit the decision model ([decision]) on the networks of MODEL.pt and "
+                        "write the result to --out")
     p.add_argument("--from-checkpoint", type=Path, default=None, metavar="MODEL.pt",
                    help="synthesize and train nothing first: run the survey stage on the networks of MODEL.pt and "
                         "write the result to --out (its clutter threshold calibrated again)")
@@ -100,7 +116,8 @@ def run(args: argparse.Namespace) -> int:
         return _export(args.export_inference, args.force)
     if args.shadow_tops is not None:
         return _shadow_tops(args.shadow_tops, args.out, args.force)
-    check_output_file(args.out, force=args.force, inputs=[args.config], what="checkpoint")  # before torch loads
+    check_output_file(args.out, force=args.force, inputs=[args.config, args.fit_decision],
+                      what="checkpoint")  # before torch loads
     check_output_file(export_path(args.out), force=args.force, inputs=[args.config], what="inference export")
     if args.calibrate_surveys is not None:
         check_survey_options(("--calibrate-surveys", args.calibrate_surveys), ("--calibrate-seed", args.calibrate_seed),
@@ -114,20 +131,25 @@ def run(args: argparse.Namespace) -> int:
     from classify.training.workflow import train_and_save
 
     settings = with_overrides(load_train_settings(args.config, quick=args.quick), args.epochs, args.seed,
-                              args.threads, args.surveys)
+                              args.threads, args.surveys, args.decision_surveys)
     _check_surveys(settings.surveys)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     if args.from_checkpoint is not None:
-        return _from_checkpoint(args, settings, cache)
+        return from_checkpoint(args, settings, cache)
+    if args.fit_decision is not None:
+        return fit_decision(args, settings, cache)
     extra = {"recon": recon_metrics(cache, progress=not args.quiet)} if args.recon_eval else {}
     extra.update({f"recon_{p}": recon_metrics(cache, not args.quiet, p, quick=True) for p in args.recon_eval_acoustics})
     out = train_and_save(settings, args.out, cache, progress=not args.quiet, extra_evals=extra,
-                         survey_clouds=survey_clouds(settings.synthesis, cache, not args.quiet))
+                         survey_clouds=survey_clouds(settings.synthesis, cache, not args.quiet),
+                         survey_objects=survey_objects(settings.synthesis, cache, not args.quiet))
     m = out.metrics
     print(f"trained {m['epochs_run']} epochs in {m['train_seconds']:.1f} s (synthesis {m['synthesis_seconds']:.1f} s), "
           f"best epoch {m['best_epoch']}, validation accuracy {m['val_accuracy']:.3f}")
     if "surveys" in m:
-        _print_surveys(m["surveys"])
+        print_surveys(m["surveys"])
+    if "decision" in m:
+        print_decision(m["decision"])
     print(f"held-out synthesized clouds ({out.heldout.n}):")
     print(out.heldout.text())
     for key in ("recon", *(f"recon_{p}" for p in args.recon_eval_acoustics)):
@@ -150,49 +172,6 @@ def _check_surveys(s: SurveySettings) -> None:
         check_pairing(s.acoustics, s.sonar)
     except ValueError as exc:
         raise AuvlinkError(f"[surveys] acoustics = {s.acoustics!r} with sonar = {s.sonar!r}: {exc}") from exc
-
-
-def survey_clouds(synthesis: SynthesisSettings, cache: Path | None, progress: bool) -> SurveyClouds:
-    """What makes the survey stage's clouds (:func:`auvlink.evaluation.survey_clouds.survey_cloud_set`), normalized
-    as ``synthesis``'s clouds, cached under ``cache`` (None: nothing kept)."""
-    from auvlink.evaluation.survey_clouds import survey_cloud_set
-
-    def make(s: SurveySettings, names: Sequence[str]) -> CloudSet:
-        return survey_cloud_set(s.surveys, s.seed, names, n_points=synthesis.n_points, scale_m=synthesis.scale_m,
-                                z_ref=synthesis.z_ref, cache_dir=cache, workers=s.workers, progress=progress,
-                                acoustics=s.acoustics, sonar=s.sonar, ideal_every=s.ideal_every)
-    return make
-
-
-def _print_surveys(m: dict[str, Any]) -> None:
-    s = m["settings"]
-    ideal = f", 1 in {s['ideal_every']} ideal" if s.get("ideal_every") else ""
-    print(f"survey stage: {m['n_clouds']} clouds of {s['surveys']} surveys (seed {s['seed']}, acoustics "
-          f"{s['acoustics']}{ideal}, sonar {s['sonar']}) in {m['clouds_seconds']:.0f} s and "
-          f"{m.get('n_synthesized', 0)} synthesized, trained {m['train_seconds']:.0f} s; "
-          f"validation accuracy {', '.join(f'{a:.3f}' for a in m['val_accuracy'])}")
-
-
-def _from_checkpoint(args: argparse.Namespace, settings: TrainSettings, cache: Path | None) -> int:
-    """``--from-checkpoint``: the survey stage alone (see the module doc)."""
-    checkpoint = args.from_checkpoint
-    if not checkpoint.is_file():
-        raise AuvlinkError(f"--from-checkpoint {checkpoint}: no such checkpoint")
-    if settings.surveys.surveys <= 0:
-        raise AuvlinkError("--from-checkpoint runs the survey stage: give it surveys (--surveys N or [surveys] "
-                           "surveys in --config)")
-    from classify.checkpoint import load_checkpoint
-    from classify.training.synthesis import SynthesisSettings
-    from classify.training.workflow import tune_checkpoint
-
-    synthesis = SynthesisSettings.from_dict(load_checkpoint(checkpoint).synthesis)
-    path, m = tune_checkpoint(checkpoint, settings, args.out, survey_clouds(synthesis, cache, not args.quiet),
-                              cache, progress=not args.quiet)
-    _print_surveys(m["surveys"])
-    print(f"clutter threshold {m['calibration'].get('clutter_threshold')} (survey clouds' validation split); "
-          f"held-out synthesized clouds (thinned, {m['heldout']['n']}): accuracy {m['heldout']['accuracy']:.3f}")
-    print(f"checkpoint: {path} ({path.stat().st_size / 1e6:.2f} MB)")
-    return 0
 
 
 def _calibrate(args: argparse.Namespace, model: Path) -> None:

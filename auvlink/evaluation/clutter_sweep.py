@@ -104,22 +104,30 @@ def _checkpoint(model: Path | None) -> Checkpoint:
 
 
 def write_calibrated(model: Path | None, out: Path, threshold: float, source: str) -> Path:
-    """A copy of the checkpoint ``model`` (None: the shipped one) at ``out`` whose ``clutter_threshold`` is
-    ``threshold``; the one it had is kept as ``clutter_threshold_before``, and ``source`` says where the new one
-    came from (``clutter_threshold_source``)."""
+    """A copy of the checkpoint ``model`` (None: the shipped one) at ``out`` whose clutter threshold is
+    ``threshold`` (its decision model's, :mod:`classify.decision`, when it has one: what the engine applies; else
+    ``clutter_threshold``); the one it had is kept as ``clutter_threshold_before``, and ``source`` says where the new
+    one came from (``clutter_threshold_source``)."""
     from classify.checkpoint import save_recalibrated
 
     ck = _checkpoint(model)
     cal = dict(ck.calibration)
-    cal["clutter_threshold_before"] = cal.get("clutter_threshold")
-    cal["clutter_threshold"] = float(threshold)
+    cal["clutter_threshold_before"] = model_threshold(model)
+    if cal.get("decision"):
+        cal["decision"] = {**cal["decision"], "clutter_threshold": float(threshold)}
+    else:
+        cal["clutter_threshold"] = float(threshold)
     cal["clutter_threshold_source"] = source
     return save_recalibrated(ck, out, cal)
 
 
 def model_threshold(model: Path | None) -> float:
-    """The clutter threshold the checkpoint ``model`` (None: the shipped one) applies (as
-    :class:`classify.infer.Classifier` reads it)."""
+    """The clutter threshold the checkpoint ``model`` (None: the shipped one) applies where the engine classifies
+    (its decision model's when it has one, else ``clutter_threshold``, as :class:`classify.infer.Classifier` reads
+    them)."""
     from classify.infer import DEFAULT_CLUTTER_THRESHOLD
 
-    return float(_checkpoint(model).calibration.get("clutter_threshold", DEFAULT_CLUTTER_THRESHOLD))
+    cal = _checkpoint(model).calibration
+    if cal.get("decision"):
+        return float(cal["decision"].get("clutter_threshold", 0.5))
+    return float(cal.get("clutter_threshold", DEFAULT_CLUTTER_THRESHOLD))

@@ -38,6 +38,7 @@ from auvlink.evaluation.acoustic_draw import AcousticDraw, draw_acoustics
 from auvlink.evaluation.draw import SurveyDraw, draw_surveys
 from auvlink.evaluation.surveys import worker_init
 from auvlink.progress import progress_bar
+from classify.decision import EVIDENCE
 from classify.labels import CLUTTER
 from classify.normalize import normalize_cloud
 from classify.training.dataset import CloudSet
@@ -60,6 +61,7 @@ class CloudJob:
     z_ref: str
     cache: Path | None
     seed: int
+    evidence: bool = False  # the objects' evidence is needed (a cached file without it is harvested again)
 
 
 def label_objects(positions_ne: npt.NDArray[np.float64], truth: Sequence[tuple[str, float, float]]) -> list[str]:
@@ -74,10 +76,12 @@ def label_objects(positions_ne: npt.NDArray[np.float64], truth: Sequence[tuple[s
 
 
 def harvest_survey(job: CloudJob) -> dict[str, Any]:
-    """Simulate and replay one survey; its clouds ``(k, n_points, 3)`` float32, labels, heading and tilt (deg)."""
+    """Simulate and replay one survey; its clouds ``(k, n_points, 3)`` float32, labels, shadow heights (m), heading
+    and tilt (deg), and each object's evidence ``(k, len(classify.decision.EVIDENCE))``."""
     if job.cache is not None and job.cache.is_file():
         with np.load(job.cache, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
+            if not job.evidence or "evidence" in z.files:
+                return {k: z[k] for k in z.files}
     from auvlink.pipeline.process import run_log
     from auvlink.sim.mission import simulate_to_log
     from auvlink.sim.scene import load_scene
@@ -100,13 +104,15 @@ def harvest_survey(job: CloudJob) -> dict[str, Any]:
         pick = rng.choice(len(pts), job.n_points, replace=len(pts) < job.n_points)
         clouds[i] = normalize_cloud(pts[pick], job.scale_m, job.z_ref, float(x.seabed_depth or 0.0))
     heights = np.array([np.nan if x.shadow_height is None else x.shadow_height for x in dets], dtype=np.float64)
+    evidence = np.array([x.evidence for x in dets], dtype=np.float64).reshape(len(dets), len(EVIDENCE))
     out = {"clouds": clouds, "labels": np.array(labels, dtype="U32"), "shadow_heights": heights,
-           "heading_deg": np.full(len(dets), d.heading_deg), "tilt_deg": np.full(len(dets), d.tilt_deg)}
+           "heading_deg": np.full(len(dets), d.heading_deg), "tilt_deg": np.full(len(dets), d.tilt_deg),
+           "evidence": evidence}
     if job.cache is not None:
         job.cache.parent.mkdir(parents=True, exist_ok=True)
         tmp_path = job.cache.with_name(job.cache.name + ".tmp.npz")
         np.savez(tmp_path, clouds=out["clouds"], labels=out["labels"], shadow_heights=out["shadow_heights"],
-                 heading_deg=out["heading_deg"], tilt_deg=out["tilt_deg"])
+                 heading_deg=out["heading_deg"], tilt_deg=out["tilt_deg"], evidence=out["evidence"])
         tmp_path.replace(job.cache)
     return out
 
@@ -124,14 +130,10 @@ def survey_space(index: int, acoustics: str, ideal_every: int) -> str:
     return "ideal" if ideal_every > 0 and index % ideal_every == ideal_every - 1 else acoustics
 
 
-def survey_cloud_set(n: int, seed: int, class_names: Sequence[str], *, n_points: int, scale_m: float, z_ref: str,
-                     cache_dir: Path | None = None, workers: int = 2, progress: bool = True,
-                     acoustics: str = "random", sonar: str = "didson", small: bool = False,
-                     ideal_every: int = 0) -> CloudSet:
-    """The clouds of ``n`` surveys of the draw ``seed`` (module docstring; every ``ideal_every``-th flown under the
-    idealized model: :func:`survey_space`) as a :class:`CloudSet` (every cloud ``measured``: recon's own seabed
-    removal made it); objects of a class outside ``class_names`` are left out (and clutter where ``class_names``
-    has none); ``small``: the smoke draw (2 lines, 2 objects a survey)."""
+def _harvest(n: int, seed: int, *, n_points: int, scale_m: float, z_ref: str, cache_dir: Path | None, workers: int,
+             progress: bool, acoustics: str, sonar: str, small: bool, ideal_every: int,
+             evidence: bool) -> list[dict[str, Any]]:
+    """Every survey's harvest (:func:`harvest_survey`), in draw order."""
     draws = draw_surveys(n, seed, small, sonar)
     jobs = []
     for d in draws:
@@ -139,7 +141,7 @@ def survey_cloud_set(n: int, seed: int, class_names: Sequence[str], *, n_points:
         key = cache_key(seed, space, sonar, n_points, scale_m, z_ref, small)
         cache = None if cache_dir is None else Path(cache_dir) / "surveys" / f"{key}-{d.index:04d}.npz"
         jobs.append(CloudJob(d, draw_acoustics(space, seed, d.index, d.window_length, d.sonar), n_points, scale_m,
-                             z_ref, cache, seed))
+                             z_ref, cache, seed, evidence))
     parts: list[dict[str, Any]] = []
     bar = progress_bar(total=len(jobs), enabled=progress, desc="survey clouds", leave=False)
     if workers <= 1 or len(jobs) <= 1:
@@ -152,6 +154,12 @@ def survey_cloud_set(n: int, seed: int, class_names: Sequence[str], *, n_points:
                 parts.append(part)
                 bar.update(1)
     bar.close()
+    return parts
+
+
+def _cloud_set(parts: Sequence[dict[str, Any]], class_names: Sequence[str], n_points: int, scale_m: float,
+               z_ref: str) -> tuple[CloudSet, npt.NDArray[np.bool_]]:
+    """The harvests' clouds of the classes ``class_names`` as one :class:`CloudSet`, and which clouds were kept."""
     names = list(class_names)
     clouds = np.concatenate([p["clouds"] for p in parts]) if parts else np.zeros((0, n_points, 3), np.float32)
     labels = np.concatenate([p["labels"] for p in parts]) if parts else np.zeros(0, "U32")
@@ -160,4 +168,32 @@ def survey_cloud_set(n: int, seed: int, class_names: Sequence[str], *, n_points:
     heading = np.concatenate([p["heading_deg"] for p in parts])[keep] if parts else np.zeros(0)
     tilt = np.concatenate([p["tilt_deg"] for p in parts])[keep] if parts else np.zeros(0)
     return CloudSet(clouds[keep].astype(np.float32), idx, tuple(names), heading, tilt, scale_m, z_ref,
-                    np.ones(int(keep.sum()), bool))
+                    np.ones(int(keep.sum()), bool)), keep
+
+
+def survey_cloud_set(n: int, seed: int, class_names: Sequence[str], *, n_points: int, scale_m: float, z_ref: str,
+                     cache_dir: Path | None = None, workers: int = 2, progress: bool = True,
+                     acoustics: str = "random", sonar: str = "didson", small: bool = False,
+                     ideal_every: int = 0) -> CloudSet:
+    """The clouds of ``n`` surveys of the draw ``seed`` (module docstring; every ``ideal_every``-th flown under the
+    idealized model: :func:`survey_space`) as a :class:`CloudSet` (every cloud ``measured``: recon's own seabed
+    removal made it); objects of a class outside ``class_names`` are left out (and clutter where ``class_names``
+    has none); ``small``: the smoke draw (2 lines, 2 objects a survey)."""
+    parts = _harvest(n, seed, n_points=n_points, scale_m=scale_m, z_ref=z_ref, cache_dir=cache_dir, workers=workers,
+                     progress=progress, acoustics=acoustics, sonar=sonar, small=small, ideal_every=ideal_every,
+                     evidence=False)
+    return _cloud_set(parts, class_names, n_points, scale_m, z_ref)[0]
+
+
+def survey_object_set(n: int, seed: int, class_names: Sequence[str], *, n_points: int, scale_m: float, z_ref: str,
+                      cache_dir: Path | None = None, workers: int = 2, progress: bool = True,
+                      acoustics: str = "random", sonar: str = "didson", small: bool = False,
+                      ideal_every: int = 0) -> tuple[CloudSet, npt.NDArray[np.float64]]:
+    """:func:`survey_cloud_set` with each kept object's evidence ``(len(clouds), len(classify.decision.EVIDENCE))``
+    (what the decision model of :mod:`classify.decision` is fitted on)."""
+    parts = _harvest(n, seed, n_points=n_points, scale_m=scale_m, z_ref=z_ref, cache_dir=cache_dir, workers=workers,
+                     progress=progress, acoustics=acoustics, sonar=sonar, small=small, ideal_every=ideal_every,
+                     evidence=True)
+    data, keep = _cloud_set(parts, class_names, n_points, scale_m, z_ref)
+    ev = np.concatenate([p["evidence"] for p in parts]) if parts else np.zeros((0, len(EVIDENCE)))
+    return data, ev[keep]

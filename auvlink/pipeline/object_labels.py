@@ -35,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from auvlink.pipeline.results import Detection
+from classify.decision import EVIDENCE
 from classify.labels import CLUTTER
 from recon.cluster import DetectedObject
 
@@ -95,7 +96,7 @@ class ObjectLabeller:
 
             self.classifier = load_classifier(self.model, threads=self.torch_threads)
             if self.clutter_threshold is not None:
-                self.classifier.clutter_threshold = float(self.clutter_threshold)
+                self.classifier.set_clutter_threshold(float(self.clutter_threshold))
 
     def label(self, objects: Sequence[DetectedObject], reported: Container[int], final: bool = False
               ) -> list[tuple[str, float]]:
@@ -136,10 +137,13 @@ class ObjectLabeller:
         clf = self.classifier
         assert clf is not None
         prob = self.probabilities(clf, objects)
+        evidence = np.stack([object_evidence(o) for o in objects])
         labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects],
-                            shadow_heights=[float(o.shadow_height) for o in objects])
-        if clf.clutter_index is not None:
-            self.scores += [(int(o.id), float(q)) for o, q in zip(objects, prob[:, clf.clutter_index], strict=True)]
+                            shadow_heights=[float(o.shadow_height) for o in objects], evidence=evidence)
+        if clf.clutter_index is not None:  # the probability of clutter the rule saw
+            decided = clf.decision_probabilities(prob, evidence)
+            self.scores += [(int(o.id), float(q)) for o, q in zip(objects, decided[:, clf.clutter_index],
+                                                                  strict=True)]
         for o, lab in zip(objects, labels, strict=True):
             self._evidence[int(o.id)] = (int(o.n_points), np.asarray(o.extent, dtype=np.float64).copy(), lab)
         return labels
@@ -164,6 +168,25 @@ class ObjectLabeller:
         return np.stack([self._cache[k] for k in keys])
 
 
+#: of the depths of an object's points: its top (a quantile, not the shallowest point: one stray point is no top)
+TOP_QUANTILE = 0.05
+
+
+def object_evidence(o: DetectedObject) -> npt.NDArray[np.float64]:
+    """What recon measured of a finalized object besides its cloud, as :data:`classify.decision.EVIDENCE` orders it
+    (NaN where unknown): its shadow height and readings (:class:`recon.shadow.ShadowReading`), extent, top over the
+    seabed (the :data:`TOP_QUANTILE` of its points' depths), points and time span."""
+    pts = np.asarray(o.points, dtype=np.float64).reshape(-1, 3)
+    sd = float(o.seabed_depth)
+    top = sd - float(np.quantile(pts[:, 2], TOP_QUANTILE)) if len(pts) and np.isfinite(sd) else np.nan
+    r = o.shadow
+    ev = np.array([o.shadow_height, *np.asarray(o.extent, dtype=np.float64)[:3], top, o.n_points,
+                   o.t_last - o.t_first, *r.footprint_quantiles_m, *r.ring_quantiles_m, r.footprint_tops,
+                   r.ring_tops], dtype=np.float64)
+    assert ev.shape == (len(EVIDENCE),)
+    return ev
+
+
 def make_detection(o: DetectedObject, class_name: str, score: float, shift: npt.NDArray[np.float64],
                    epoch: float) -> Detection:
     """The detection of the finalized object ``o``: its points and centre moved by ``shift`` (m, the frame D ->
@@ -177,4 +200,5 @@ def make_detection(o: DetectedObject, class_name: str, score: float, shift: npt.
                      times=epoch + np.asarray(o.times, dtype=np.float64),
                      passes=tuple((epoch + a, epoch + b) for a, b in getattr(o, "passes", ())),
                      seabed_depth=float(o.seabed_depth) if np.isfinite(o.seabed_depth) else None,
-                     shadow_height=float(o.shadow_height) if np.isfinite(o.shadow_height) else None)
+                     shadow_height=float(o.shadow_height) if np.isfinite(o.shadow_height) else None,
+                     evidence=tuple(float(v) for v in object_evidence(o)))

@@ -42,6 +42,8 @@ class Detection:
     passes: tuple[tuple[float, float], ...] = ()  # time spans (s since the epoch) of the passes that saw it
     seabed_depth: float | None = None  # m, NED: the seabed under it (recon's model of the poll)
     shadow_height: float | None = None  # m: its top over the seabed from its acoustic shadows (recon.shadow)
+    #: what recon measured of it besides its cloud (classify.decision.EVIDENCE; auvlink.pipeline.object_labels)
+    evidence: tuple[float, ...] = ()
 
     @property
     def box(self) -> OrientedBox:

@@ -3,7 +3,8 @@
 Tables: ``[synthesis]`` (fields of :class:`SynthesisSettings`; ``heading_step_deg`` may stand for
 ``headings_deg``), ``[train]`` (fields of :class:`TrainConfig`), ``[train.augment]``
 (:class:`AugmentConfig`), ``[surveys]`` (:class:`~classify.training.survey_tuning.SurveySettings`: the survey
-stage) and ``[quick]`` (overrides of ``train`` and ``synthesis`` keys, and of ``surveys``, for a
+stage), ``[decision]`` (:class:`~classify.training.decision_fit.DecisionSettings`: the decision model's surveys)
+and ``[quick]`` (overrides of ``train`` and ``synthesis`` keys, and of ``surveys`` and ``decision_surveys``, for a
 reduced-budget run, e.g. ``epochs``, ``heading_step_deg``).
 """
 
@@ -23,6 +24,7 @@ from auvlink.sim.scene import SIMULATED_MODELS
 from auvlink.validation import CONFIG, Boolean, Integer, Number, Text, read_toml, validate
 from classify.checkpoint_meta import MAX_MEMBERS, MAX_POINTS, MAX_WIDTH
 from classify.training.augment import AugmentConfig
+from classify.training.decision_fit import DecisionSettings
 from classify.training.survey_tuning import SurveySettings
 from classify.training.synthesis import SynthesisSettings
 from classify.training.train import TrainConfig
@@ -46,6 +48,8 @@ _BOUNDS: dict[str, tuple[Any, ...]] = {
     # as auvlink.cli.survey_options' MAX_SURVEYS and MAX_WORKERS (each survey minutes of work; 0: no survey stage)
     "surveys": (0, 10_000), "workers": (1, 256),
     "ideal_every": (0, 10_000), "synthesized_share": (0.0, 0.95),  # 0.95: a stage of 20 synthesized clouds to one
+    "decision_surveys": (0, 10_000), "holdout": (0.0, 0.9),
+    "c": ("gt", 0.0, 1e6),  # the regression's inverse penalty: 1e6 is no penalty at all
 }
 #: bounds of each value of a [low, high] pair or a list (the pair itself must be in order)
 _BOUNDS.update({
@@ -121,11 +125,13 @@ TrainTable = table_model(TrainConfig, "TrainTable", {"augment": (AugmentTable | 
 QuickTable = create_model("QuickTable", __config__=ConfigDict(**CONFIG),  # type: ignore[call-overload]
                           **{k: (v.annotation, None) for k, v in {**SynthesisTable.model_fields,
                                                                   **TrainTable.model_fields}.items()
-                             if k != "augment"}, surveys=(_leaf(int, "surveys") | None, None))
+                             if k != "augment"}, surveys=(_leaf(int, "surveys") | None, None),
+                          decision_surveys=(_leaf(int, "decision_surveys") | None, None))
 SurveysTable = table_model(SurveySettings, "SurveysTable")
+DecisionTable = table_model(DecisionSettings, "DecisionTable")
 TrainFile = create_model("TrainFile", __config__=ConfigDict(**CONFIG), synthesis=(SynthesisTable | None, None),
                          train=(TrainTable | None, None), quick=(QuickTable | None, None),
-                         surveys=(SurveysTable | None, None))
+                         surveys=(SurveysTable | None, None), decision=(DecisionTable | None, None))
 
 
 @dataclass(frozen=True)
@@ -134,6 +140,7 @@ class TrainSettings:
     train: TrainConfig
     source: str = ""
     surveys: SurveySettings = field(default_factory=SurveySettings)
+    decision: DecisionSettings = field(default_factory=DecisionSettings)
 
 
 def _synthesis(table: dict[str, Any]) -> SynthesisSettings:
@@ -155,30 +162,34 @@ def load_train_settings(path: Path | None = None, quick: bool = False) -> TrainS
     doc, _ = read_toml(path, str(path))
     validate(TrainFile, doc)
     syn_t, train_t = dict(doc.get("synthesis", {})), dict(doc.get("train", {}))
-    surveys_t = dict(doc.get("surveys", {}))
+    surveys_t, decision_t = dict(doc.get("surveys", {})), dict(doc.get("decision", {}))
     if quick:
         for k, v in doc.get("quick", {}).items():
             if k == "surveys":
                 surveys_t[k] = v
+            elif k == "decision_surveys":
+                decision_t["surveys"] = v
             elif k in SynthesisSettings.__dataclass_fields__ or k == "heading_step_deg":
                 syn_t[k] = v
             else:
                 train_t[k] = v
     try:
         return TrainSettings(_synthesis(syn_t), TrainConfig.from_dict(train_t), str(path),
-                             SurveySettings.from_dict(surveys_t))
+                             SurveySettings.from_dict(surveys_t), DecisionSettings.from_dict(decision_t))
     except (TypeError, ValueError) as exc:
         raise ConfigError(str(path), f"bad training settings: {exc}", "check the values") from exc
 
 
 def with_overrides(s: TrainSettings, epochs: int | None = None, seed: int | None = None,
-                   threads: int | None = None, surveys: int | None = None) -> TrainSettings:
-    """``s`` with the command line's ``--epochs``, ``--seed``, ``--threads`` (each checked as in ``[train]``) and
-    ``--surveys`` (as in ``[surveys]``)."""
-    for option, value in (("epochs", epochs), ("seed", seed), ("threads", threads), ("surveys", surveys)):
+                   threads: int | None = None, surveys: int | None = None,
+                   decision_surveys: int | None = None) -> TrainSettings:
+    """``s`` with the command line's ``--epochs``, ``--seed``, ``--threads`` (each checked as in ``[train]``),
+    ``--surveys`` (as in ``[surveys]``) and ``--decision-surveys`` (``[decision] surveys``)."""
+    for option, value in (("epochs", epochs), ("seed", seed), ("threads", threads), ("surveys", surveys),
+                          ("decision_surveys", decision_surveys)):
         lo, hi = _BOUNDS[option]
         if value is not None and not lo <= value <= hi:
-            raise AuvlinkError(f"--{option} must be an integer in [{lo}, {hi}], got {value}")
+            raise AuvlinkError(f"--{option.replace('_', '-')} must be an integer in [{lo}, {hi}], got {value}")
     train = s.train
     if threads is not None:
         train = replace(train, threads=threads)
@@ -188,4 +199,6 @@ def with_overrides(s: TrainSettings, epochs: int | None = None, seed: int | None
         train = replace(train, seed=seed)
     if surveys is not None:
         s = replace(s, surveys=replace(s.surveys, surveys=surveys))
+    if decision_surveys is not None:
+        s = replace(s, decision=replace(s.decision, surveys=decision_surveys))
     return replace(s, train=train)

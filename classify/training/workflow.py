@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 from classify.checkpoint import load_checkpoint, save_checkpoint
 from classify.errors import SynthesisError
@@ -29,6 +28,7 @@ from classify.labels import CLUTTER, with_clutter
 from classify.pointnet import PointNet
 from classify.training.config import TrainSettings
 from classify.training.dataset import CloudSet, MeshSource, catalog_meshes, heldout_settings, synthesize_set
+from classify.training.decision_fit import SurveyObjects, cloud_probabilities, decision_stage
 from classify.training.evaluate import EvalReport
 from classify.training.solid_tops import SHADOW_TOPS_SOURCE, solid_tops
 from classify.training.survey_tuning import SurveyClouds, mixed_with_synthesized, tune_on_surveys
@@ -49,18 +49,12 @@ class TrainOutcome:
     metrics: dict[str, Any]
 
 
-def set_probabilities(clf: Classifier, data: CloudSet) -> npt.NDArray[np.float32]:
-    """Probabilities ``(len(data), k)`` of every cloud of ``data`` through the inference path."""
-    pts = data.points * data.scale_m if data.scale_m > 0 else data.points  # back to metres
-    return clf.probabilities(list(pts), batch_size=16, seabed_depths=[0.0] * len(pts))  # seabed at z = 0
-
-
 def evaluate_classifier(clf: Classifier, data: CloudSet) -> EvalReport:
     """Classify every cloud of ``data`` through the inference path, with its decision rule (``clutter`` from
     the calibrated threshold); labels mapped by class name."""
     names = list(clf.class_names)
     true = np.array([names.index(data.class_names[k]) for k in data.labels])
-    pred = [names.index(c) for c, _ in clf.decide(set_probabilities(clf, data))]
+    pred = [names.index(c) for c, _ in clf.decide(cloud_probabilities(clf, data))]
     return EvalReport.from_predictions(clf.class_names, true, pred)
 
 
@@ -71,7 +65,7 @@ def calibrate_clutter(clf: Classifier, data: CloudSet, share: float = CLUTTER_SH
     as rates over the split (its own mix of classes does not weigh in); the lowest such threshold."""
     if clf.clutter_index is None:
         return {}
-    prob = set_probabilities(clf, data)[:, clf.clutter_index].astype(np.float64)
+    prob = cloud_probabilities(clf, data)[:, clf.clutter_index].astype(np.float64)
     is_clutter = np.array([data.class_names[k] == CLUTTER for k in data.labels])
     objects, clutter = prob[~is_clutter], prob[is_clutter]
     grid = np.round(np.arange(0.30, 0.951, 0.01), 2)
@@ -128,7 +122,8 @@ def survey_stage(models: Sequence[PointNet], settings: TrainSettings, names: Seq
 def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = None, progress: bool = True,
                    meshes: tuple[tuple[str, ...], MeshSource] | None = None,
                    extra_evals: Mapping[str, Callable[[Classifier], dict[str, Any]]] | None = None,
-                   survey_clouds: SurveyClouds | None = None) -> TrainOutcome:
+                   survey_clouds: SurveyClouds | None = None,
+                   survey_objects: SurveyObjects | None = None) -> TrainOutcome:
     names, mesh_for = meshes if meshes is not None else catalog_meshes()
     names = with_clutter(names, settings.synthesis.clutter_clouds > 0)
     t0 = time.perf_counter()
@@ -162,6 +157,9 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
                    "shadow_tops_m": solid_tops(names, mesh_for), "shadow_tops_source": SHADOW_TOPS_SOURCE}
     metrics["calibration"] = calibration
     path = save(calibration)
+    if settings.decision.surveys > 0:
+        calibration = with_decision(path, calibration, settings, survey_objects, metrics)
+        path = save(calibration)
     clf = Classifier.load(path)  # as calibrated: what inference loads
     report = evaluate_classifier(clf, held)
     metrics["heldout"] = {"settings": held_settings.to_dict(), **report.to_dict()}
@@ -169,6 +167,21 @@ def train_and_save(settings: TrainSettings, out: Path, cache_dir: Path | None = 
         metrics[key] = check(clf)
     save(calibration)
     return TrainOutcome(path, result, report, metrics)
+
+
+def with_decision(path: Path, calibration: dict[str, Any], settings: TrainSettings,
+                  survey_objects: SurveyObjects | None, metrics: dict[str, Any]) -> dict[str, Any]:
+    """``calibration`` with the decision model of the checkpoint at ``path`` (:mod:`classify.training.decision_fit`,
+    ``[decision]``) fitted on ``survey_objects`` (the application layer's); the stage's metrics go into
+    ``metrics["decision"]``."""
+    if survey_objects is None:
+        raise SynthesisError(f"[decision] surveys = {settings.decision.surveys} needs the objects of simulated "
+                             "surveys: run `auvlink train`, or set [decision] surveys = 0")
+    clf = Classifier.load(path)
+    clf.decision = None  # the networks' own probabilities and rule, whatever the checkpoint held
+    model, stage = decision_stage(clf, settings.decision, survey_objects)
+    metrics["decision"] = stage
+    return {**calibration, "decision": model.to_meta().model_dump()}
 
 
 def heldout_set(synthesis: dict[str, Any] | SynthesisSettings, class_names: tuple[str, ...],
@@ -189,7 +202,8 @@ def heldout_set(synthesis: dict[str, Any] | SynthesisSettings, class_names: tupl
 
 def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey_clouds: SurveyClouds,
                     cache_dir: Path | None = None, progress: bool = True,
-                    mesh_for: MeshSource | None = None) -> tuple[Path, dict[str, Any]]:
+                    mesh_for: MeshSource | None = None,
+                    survey_objects: SurveyObjects | None = None) -> tuple[Path, dict[str, Any]]:
     """``auvlink train --from-checkpoint``: the survey stage alone on the networks of ``checkpoint`` (its classes,
     synthesis and training settings kept), its clutter threshold calibrated again on the survey clouds, and its
     held-out synthesized clouds (:func:`heldout_set`, thinned) classified again (the checkpoint's own held-out report
@@ -206,6 +220,7 @@ def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey
     metrics = {**ck.metrics, "surveys": {**stage.metrics, "from_checkpoint": str(checkpoint)}}
     if "heldout" in ck.metrics:
         metrics["heldout_before_surveys"] = metrics.pop("heldout")
+    metrics.pop("decision", None)
     models = stage.models
 
     def save(calibration: dict[str, Any]) -> Path:
@@ -214,10 +229,30 @@ def tune_checkpoint(checkpoint: Path, settings: TrainSettings, out: Path, survey
 
     path = save(ck.calibration)
     clutter = calibrate_clutter(Classifier.load(path), stage.calibration_set)
-    calibration = {k: v for k, v in ck.calibration.items() if k != "clutter_threshold_before"}
+    calibration = {k: v for k, v in ck.calibration.items() if k not in ("clutter_threshold_before", "decision")}
     calibration.update(clutter)
     metrics["calibration"] = calibration
     path = save(calibration)
+    if settings.decision.surveys > 0:
+        calibration = with_decision(path, calibration, settings, survey_objects, metrics)
+        path = save(calibration)
     held = heldout_set(ck.synthesis, ck.class_names, cache_dir, progress=progress, mesh_for=mesh_for, thin=True)
     metrics["heldout"] = {"thin": True, **evaluate_classifier(Classifier.load(path), held).to_dict()}
     return save(calibration), metrics
+
+
+def fit_checkpoint_decision(checkpoint: Path, settings: TrainSettings, out: Path,
+                            survey_objects: SurveyObjects) -> tuple[Path, dict[str, Any]]:
+    """``auvlink train --fit-decision``: the checkpoint's networks and calibration as they are, with a decision model
+    (``[decision]``) fitted on their probabilities; saved to ``out`` (with its inference export). Returns the path and
+    the decision stage's metrics."""
+    if settings.decision.surveys <= 0:
+        raise SynthesisError("--fit-decision needs [decision] surveys > 0 (or --decision-surveys N)")
+    ck = load_checkpoint(checkpoint)
+    metrics = dict(ck.metrics)
+    calibration = {k: v for k, v in ck.calibration.items() if k != "decision"}
+    calibration = with_decision(checkpoint, calibration, settings, survey_objects, metrics)
+    metrics["calibration"] = calibration
+    path = save_checkpoint(out, ck.model, ck.class_names, ck.n_points, ck.synthesis, ck.train, metrics, calibration,
+                           ck.members)
+    return path, metrics["decision"]
