@@ -71,19 +71,26 @@ def print_decision(m: dict[str, Any]) -> None:
     print(line)
 
 
+def _synthesis_of(checkpoint: Path, option: str, surveys: int, needs: str) -> SynthesisSettings:
+    """The synthesis settings of ``checkpoint`` (what its clouds are normalized by), once it exists and the stage
+    ``option`` runs has ``surveys`` to fly (else :class:`AuvlinkError`: ``option`` ``needs``)."""
+    if not checkpoint.is_file():
+        raise AuvlinkError(f"{option} {checkpoint}: no such checkpoint")
+    if surveys <= 0:
+        raise AuvlinkError(f"{option} {needs}")
+    from classify.checkpoint import load_checkpoint
+    from classify.training.synthesis import SynthesisSettings
+
+    return SynthesisSettings.from_dict(load_checkpoint(checkpoint).synthesis)
+
+
 def from_checkpoint(args: argparse.Namespace, settings: TrainSettings, cache: Path | None) -> int:
     """``--from-checkpoint``: the survey stage alone (see the module doc)."""
     checkpoint = args.from_checkpoint
-    if not checkpoint.is_file():
-        raise AuvlinkError(f"--from-checkpoint {checkpoint}: no such checkpoint")
-    if settings.surveys.surveys <= 0:
-        raise AuvlinkError("--from-checkpoint runs the survey stage: give it surveys (--surveys N or [surveys] "
-                           "surveys in --config)")
-    from classify.checkpoint import load_checkpoint
-    from classify.training.synthesis import SynthesisSettings
+    synthesis = _synthesis_of(checkpoint, "--from-checkpoint", settings.surveys.surveys,
+                              "runs the survey stage: give it surveys (--surveys N or [surveys] surveys in --config)")
     from classify.training.workflow import tune_checkpoint
 
-    synthesis = SynthesisSettings.from_dict(load_checkpoint(checkpoint).synthesis)
     path, m = tune_checkpoint(checkpoint, settings, args.out, survey_clouds(synthesis, cache, not args.quiet),
                               cache, progress=not args.quiet,
                               survey_objects=survey_objects(synthesis, cache, not args.quiet))
@@ -99,18 +106,13 @@ def from_checkpoint(args: argparse.Namespace, settings: TrainSettings, cache: Pa
 def fit_decision(args: argparse.Namespace, settings: TrainSettings, cache: Path | None) -> int:
     """``--fit-decision MODEL.pt``: the decision model alone on a checkpoint (:mod:`classify.decision`)."""
     checkpoint = args.fit_decision
-    if not checkpoint.is_file():
-        raise AuvlinkError(f"--fit-decision {checkpoint}: no such checkpoint")
-    if settings.decision.surveys <= 0:
-        raise AuvlinkError("--fit-decision fits the decision model on simulated surveys: give it surveys "
-                           "(--decision-surveys N or [decision] surveys in --config)")
     check_output_file(args.out, force=args.force, inputs=[checkpoint], option="--out", what="checkpoint")
     check_output_file(export_path(args.out), force=args.force, option="--out", what="inference export")
-    from classify.checkpoint import load_checkpoint
-    from classify.training.synthesis import SynthesisSettings
+    synthesis = _synthesis_of(checkpoint, "--fit-decision", settings.decision.surveys,
+                              "fits the decision model on simulated surveys: give it surveys (--decision-surveys N "
+                              "or [decision] surveys in --config)")
     from classify.training.workflow import fit_checkpoint_decision
 
-    synthesis = SynthesisSettings.from_dict(load_checkpoint(checkpoint).synthesis)
     path, m = fit_checkpoint_decision(checkpoint, settings, args.out, survey_objects(synthesis, cache, not args.quiet))
     print_decision(m)
     print(f"checkpoint: {path} ({path.stat().st_size / 1e6:.2f} MB)")
