@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import torch
 
+from auvlink.evaluation.clutter_sweep import write_calibrated
 from auvlink.sim.scene import CLASSES
 from classify.checkpoint import load_checkpoint, save_checkpoint
 from classify.infer import DEFAULT_MODEL, Classifier
@@ -129,8 +130,7 @@ def test_engine_counts_clutter_and_does_not_report_it(small_mission_log: Path, t
     assert CLUTTER in ck.class_names, "the shipped model has no clutter output"
     runs = {}
     for name, thr in (("all", 0.0), ("none", 1.0)):  # a threshold is a probability, in [0, 1]
-        model = save_checkpoint(tmp_path / f"{name}.pt", ck.model, ck.class_names, ck.n_points, ck.synthesis,
-                                ck.train, ck.metrics, {**ck.calibration, "clutter_threshold": thr})
+        model = write_calibrated(None, tmp_path / f"{name}.pt", thr, "test")  # the threshold the engine applies
         seen: list[str] = []
         result = run_log(small_mission_log, model=model, progress=False,
                          on_detection=lambda d, s=seen: s.append(d.class_name))

@@ -7,7 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from auvlink.evaluation.clutter_sweep import apply_rule, best_threshold, reported_ids, write_calibrated
+from auvlink.evaluation.clutter_sweep import (
+    apply_rule,
+    best_threshold,
+    model_threshold,
+    reported_ids,
+    write_calibrated,
+)
 
 
 def test_reported_ids_follow_the_engine_rule() -> None:
@@ -41,7 +47,9 @@ def test_sweep_scores_what_a_run_at_the_threshold_reports(tmp_path: Path) -> Non
 
     model = write_calibrated(None, tmp_path / "low.pt", 0.02, "test: a low threshold")
     cal = load_checkpoint(model).calibration
-    assert cal["clutter_threshold"] == 0.02 and cal["clutter_threshold_source"] == "test: a low threshold"
+    # the threshold the engine applies: the decision model's (the shipped model has one)
+    assert cal["decision"]["clutter_threshold"] == model_threshold(model) == 0.02
+    assert cal["clutter_threshold_source"] == "test: a low threshold"
     assert cal["clutter_threshold_before"] is not None
     plain = run_surveys(2, 5, tmp_path / "plain", workers=2, model=model, progress=False, small=True)
     swept = run_surveys(2, 5, tmp_path / "swept", workers=2, model=model, progress=False, small=True,
@@ -77,7 +85,7 @@ def test_calibrated_model_from_the_command_line(tmp_path: Path, capsys: pytest.C
     assert "clutter threshold on these 1 surveys" in text and "<- best" in text and "<- model" in text
     data = json.loads((tmp_path / "run" / "surveys.json").read_text())
     cal = load_checkpoint(out).calibration
-    assert cal["clutter_threshold"] == data["clutter_sweep"]["best"]
+    assert model_threshold(out) == cal["decision"]["clutter_threshold"] == data["clutter_sweep"]["best"]
     assert "--clutter-sweep" in cal["clutter_threshold_source"]
     assert main(["eval", "--surveys", "1", "--seed", "5", "--small", "--workers", "1", "--out",
                  str(tmp_path / "json"), "--clutter-sweep", "--json"]) == 0
@@ -106,7 +114,7 @@ def test_calibrate_model_sets_the_sweeps_best_threshold_in_place(tmp_path: Path)
     cs = calibrate_model(model, 1, 5, tmp_path / "cal", workers=1, progress=False, small=True)
     ck = load_checkpoint(model)
     assert cs["surveys"] == 1 and cs["model_threshold"] == 0.02
-    assert ck.calibration["clutter_threshold"] == cs["best"] == best_threshold(cs["rows"], prefer=0.02)
+    assert model_threshold(model) == cs["best"] == best_threshold(cs["rows"], prefer=0.02)
     assert ck.calibration["clutter_threshold_before"] == 0.02
     assert "1 simulated surveys (draw seed 5, small)" in ck.calibration["clutter_threshold_source"]
     assert all(torch.equal(v, ck.model.state_dict()[k]) for k, v in weights.items())
