@@ -156,36 +156,42 @@ class CloudClassifier:
         if self.decision is not None:
             self.decision = replace(self.decision, clutter_threshold=float(threshold))
 
-    def decision_probabilities(self, prob: npt.NDArray[np.float32],
-                               evidence: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
-        """The probabilities :meth:`decide` applies its rule to: the :attr:`decision`'s over ``prob`` and the
-        objects' ``evidence`` (``(n, len(classify.decision.EVIDENCE))``) when both are there, else ``prob``."""
+    def decide_with_probabilities(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True,
+                                  shadow_heights: Sequence[float] | None = None, evidence: npt.ArrayLike | None = None
+                                  ) -> tuple[list[tuple[str, float]], npt.NDArray[np.float64]]:
+        """:meth:`decide`'s classes and the probabilities ``(n, k)`` its rule was applied to: the :attr:`decision`'s
+        over ``prob`` and the objects' ``evidence`` (``(n, len(classify.decision.EVIDENCE))``) when both are there,
+        else ``prob``."""
         p = np.asarray(prob, dtype=np.float64).reshape(-1, len(self.class_names))
-        if self.decision is None or evidence is None:
-            return p
-        return self.decision.probabilities(p, evidence)
+        if self.decision is not None and evidence is not None:
+            q = self.decision.probabilities(p, evidence)
+            return self.rule(q, allow_clutter, self.decision.clutter_threshold), q
+        return self.rule(p, allow_clutter, self.clutter_threshold, shadow_heights), p
 
     def decide(self, prob: npt.NDArray[np.float32], allow_clutter: bool | Sequence[bool] = True,
                shadow_heights: Sequence[float] | None = None,
                evidence: npt.ArrayLike | None = None) -> list[tuple[str, float]]:
-        """``(class_name, score)`` per row of probabilities ``(n, k)``: ``clutter`` with its probability where that
-        reaches the clutter threshold (and ``allow_clutter``, per row or for all), else the most probable object
-        class with its probability. With the objects' ``evidence`` and a :attr:`decision`, the decision's
-        probabilities and threshold (:meth:`decision_probabilities`); else the network's and
+        """``(class_name, score)`` per row of probabilities ``(n, k)`` (:meth:`rule`). With the objects' ``evidence``
+        and a :attr:`decision`, the decision's probabilities and threshold; else the network's and
         :attr:`clutter_threshold`, the object classes weighed by the objects' ``shadow_heights`` (m, one per row,
         NaN: none; :func:`classify.shadow_height.weighed` with :attr:`shadow_tops`) when given."""
-        p = self.decision_probabilities(prob, evidence)
+        return self.decide_with_probabilities(prob, allow_clutter, shadow_heights, evidence)[0]
+
+    def rule(self, prob: npt.ArrayLike, allow_clutter: bool | Sequence[bool] = True, threshold: float | None = None,
+             shadow_heights: Sequence[float] | None = None) -> list[tuple[str, float]]:
+        """``(class_name, score)`` per row of probabilities ``(n, k)``: ``clutter`` with its probability where that
+        reaches ``threshold`` (None: :attr:`clutter_threshold`; and ``allow_clutter``, per row or for all), else the
+        most probable object class with its probability, weighed by ``shadow_heights`` when given."""
+        p = np.asarray(prob, dtype=np.float64).reshape(-1, len(self.class_names))
         allow = np.broadcast_to(np.asarray(allow_clutter, dtype=bool), (p.shape[0],))
-        decided = self.decision is not None and evidence is not None
-        threshold = self.decision.clutter_threshold if decided and self.decision else self.clutter_threshold
         obj = p.copy()
         if self.clutter_index is not None:
             obj[:, self.clutter_index] = 0.0
-        if not decided:
-            obj = weighed(obj, shadow_heights, self.class_names, self.shadow_tops)
+        obj = weighed(obj, shadow_heights, self.class_names, self.shadow_tops)
         clutter = np.zeros(p.shape[0], bool)
         if self.clutter_index is not None:
-            clutter = allow & (p[:, self.clutter_index] >= threshold)
+            limit = self.clutter_threshold if threshold is None else threshold
+            clutter = allow & (p[:, self.clutter_index] >= limit)
             obj[:, self.clutter_index] = -1.0
         ks = np.where(clutter, self.clutter_index if self.clutter_index is not None else 0, obj.argmax(axis=1))
         return [(self.class_names[int(k)], float(p[i, k] if clutter[i] else obj[i, k])) for i, k in enumerate(ks)]

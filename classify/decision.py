@@ -50,6 +50,9 @@ FEATURES: tuple[str, ...] = (
     "footprint_q50^2", "footprint_q75^2", "footprint_q90^2",
     "has_ring", "ring_q50", "ring_q75", "ring_q90", "log_footprint_tops", "log_ring_tops", "q90_over_ring",
 )
+#: the probability of ``clutter`` from which a decision calls an object clutter: the regression's probabilities are
+#: calibrated on its own objects, so the most probable of two classes, as a threshold
+CLUTTER_THRESHOLD = 0.5
 #: the least probability taken into a logarithm (a network certain of a class gives others ~1e-9)
 LOG_FLOOR = 1e-6
 #: most classes and inputs a stored model may have (a checkpoint is data from anywhere)
@@ -99,7 +102,7 @@ class DecisionMeta(BaseModel):
     scale: Annotated[list[Annotated[float, Field(gt=0.0)]], Field(max_length=MAX_FEATURES)]
     coef: Annotated[list[list[float]], Field(max_length=MAX_CLASSES)]
     intercept: Annotated[list[float], Field(max_length=MAX_CLASSES)]
-    clutter_threshold: Annotated[float, Field(ge=0.0, le=1.0)] = 0.5
+    clutter_threshold: Annotated[float, Field(ge=0.0, le=1.0)] = CLUTTER_THRESHOLD
     fitted_on: dict[str, Any] = Field(default_factory=dict)
 
 
@@ -114,7 +117,7 @@ class DecisionModel:
     scale: F64
     coef: F64
     intercept: F64
-    clutter_threshold: float = 0.5
+    clutter_threshold: float = CLUTTER_THRESHOLD
     fitted_on: dict[str, Any] | None = None
 
     def probabilities(self, prob: npt.ArrayLike, evidence: npt.ArrayLike) -> F64:
@@ -150,7 +153,7 @@ class DecisionModel:
 
 
 def fit_decision(prob: npt.ArrayLike, evidence: npt.ArrayLike, labels: npt.ArrayLike, class_names: Sequence[str],
-                 c: float = 1.0, clutter_threshold: float = 0.5,
+                 c: float = 1.0, clutter_threshold: float = CLUTTER_THRESHOLD,
                  fitted_on: dict[str, Any] | None = None) -> DecisionModel:
     """Fit a :class:`DecisionModel` (scikit-learn's multinomial logistic regression, L2 penalty of inverse
     strength ``c``) on objects with network probabilities ``prob`` ``(n, k)``, ``evidence`` and true class indices

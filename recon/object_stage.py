@@ -35,9 +35,10 @@ from recon.shadow import ShadowReading
 F64 = NDArray[np.float64]
 
 #: the shortest ping interval of the sonars supported (s): the Oculus M-series' 40 pings/s (data sheet). A cluster
-#: whose points' times span less was seen at one instant (one ping, or a burst of pings a stalled link stamped on
-#: arrival): an interference stripe or a misplaced burst, never an object on the seabed, which stays in the fan
-#: while the vehicle crosses the fan's along-track footprint (metres: many pings at any supported rate)
+#: whose points' times span less was seen at one instant (one ping, or a burst of pings stamped on arrival by a
+#: sonar without its own clock): an interference stripe or a misplaced burst, never an object on the seabed, which
+#: stays in the fan while the vehicle crosses the fan's along-track footprint (metres: many pings at any supported
+#: rate)
 ONE_INSTANT_S = 0.025
 
 

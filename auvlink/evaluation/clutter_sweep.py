@@ -125,9 +125,10 @@ def model_threshold(model: Path | None) -> float:
     """The clutter threshold the checkpoint ``model`` (None: the shipped one) applies where the engine classifies
     (its decision model's when it has one, else ``clutter_threshold``, as :class:`classify.infer.Classifier` reads
     them)."""
+    from classify.decision import CLUTTER_THRESHOLD
     from classify.infer import DEFAULT_CLUTTER_THRESHOLD
 
     cal = _checkpoint(model).calibration
     if cal.get("decision"):
-        return float(cal["decision"].get("clutter_threshold", 0.5))
+        return float(cal["decision"].get("clutter_threshold", CLUTTER_THRESHOLD))
     return float(cal.get("clutter_threshold", DEFAULT_CLUTTER_THRESHOLD))

@@ -138,10 +138,10 @@ class ObjectLabeller:
         assert clf is not None
         prob = self.probabilities(clf, objects)
         evidence = np.stack([object_evidence(o) for o in objects])
-        labels = clf.decide(prob, allow_clutter=[int(o.id) not in reported for o in objects],
-                            shadow_heights=[float(o.shadow_height) for o in objects], evidence=evidence)
+        labels, decided = clf.decide_with_probabilities(
+            prob, allow_clutter=[int(o.id) not in reported for o in objects],
+            shadow_heights=[float(o.shadow_height) for o in objects], evidence=evidence)
         if clf.clutter_index is not None:  # the probability of clutter the rule saw
-            decided = clf.decision_probabilities(prob, evidence)
             self.scores += [(int(o.id), float(q)) for o, q in zip(objects, decided[:, clf.clutter_index],
                                                                   strict=True)]
         for o, lab in zip(objects, labels, strict=True):

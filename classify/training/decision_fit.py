@@ -94,11 +94,8 @@ def decision_stage(clf: CloudClassifier, settings: DecisionSettings,
         rows = np.flatnonzero(held)
         heights = evidence[rows, 0].tolist()
         before = [c for c, _ in clf.decide(prob[rows], shadow_heights=heights)]
-        saved, clf.decision = clf.decision, part
-        try:
-            after = [c for c, _ in clf.decide(prob[rows], evidence=evidence[rows])]
-        finally:
-            clf.decision = saved
+        after = [c for c, _ in clf.rule(part.probabilities(prob[rows], evidence[rows]),
+                                        threshold=part.clutter_threshold)]
         metrics["holdout"] = {"n_objects": int(rows.size), "network_rule": _scores(names, before, data.labels[rows]),
                               "decision": _scores(names, after, data.labels[rows])}
     model = fit_decision(prob, evidence, data.labels, names, settings.c, fitted_on=fitted_on)
