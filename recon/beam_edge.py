@@ -13,6 +13,12 @@ sonar's height above the seabed plane: no seabed can return there; its 5th perce
 beyond that) and seabed level ``P`` (its 90th percentile beyond that height). Each central beam's onset is the
 first range beyond that height at which its envelope reaches the midpoint ``(N + P) / 2`` of that log-intensity
 step (the edge of a step at half its height, the usual edge convention; gain and TVG shift both levels alike).
+Under the time-varied gain the water's noise climbs with range (spreading and absorption: 20 dB over 6 m at
+1.8 MHz); from under the display's floor, where the water shows no level or slope to follow, it can climb through
+half the step before the seabed shows, and the edge would be where the noise crosses it, degrees too steep. The
+noise climbs, the seabed steps: where the median envelope reaches the half step before the foot of its steepest
+rise over :data:`STEP_M`, and that rise is :data:`CLIMB_RATIO` times as steep as any before the crossing
+(:func:`_noise_climb`), the step is that rise's, from its foot to its top, and the onsets are sought from its foot.
 The seabed plane is the one the onset stage predicts the onset with
 (:meth:`recon.onset_stage.OnsetStage.seabed_planes`: the seabed fitted so far where the fan looks, else the flat
 seabed at the DVL altitude under the vehicle), seen with the vehicle's attitude: per beam, the elevation (in the
@@ -47,6 +53,14 @@ CENTRAL_FRACTION = 1.0 / 3.0
 #: m of range behind each row's upper envelope (recon.highlight's return span: a surface's bright bins lie closer
 #: than that, and it is well under the 1-2 m of range over which the onset moves with the altitude)
 ENVELOPE_M = 0.25
+#: m of range over which the seabed's onset rises (two envelope spans: the first bright bins of a lit seabed and
+#: the rows before them; the water's noise, lifted by the time-varied gain by 30 log r + 2 alpha r dB, climbs
+#: ~10 grey levels over it on a 60 dB display at 10 m and 1.8 MHz)
+STEP_M = 2 * ENVELOPE_M
+#: how many times steeper than anything before it the seabed's step rises over STEP_M where the water's noise
+#: climbed over the half step first (DIDSON at 1.8 MHz: the noise ~10 grey levels per 0.5 m at 10 m, the hard edge
+#: of a seabed 25-45; a vertical sidelobe's band and the main lobe after it step alike, within a factor of 1.5)
+CLIMB_RATIO = 2.0
 #: water-to-seabed steps smaller than this many MADs of the water profile are not a seabed onset (Gaussian
 #: 6 sigma: a false step once in ~5e8 rows)
 MIN_STEP_MAD = 6.0
@@ -129,6 +143,35 @@ def _levels(env: NDArray[np.uint8], no_seabed: NDArray[np.bool_]) -> tuple[F64, 
     return n_lvl, p_lvl, step_ok
 
 
+def _noise_climb(prof: F64, no_seabed: NDArray[np.bool_], n_lvl: F64, p_lvl: F64, span: int
+                 ) -> tuple[NDArray[np.bool_], NDArray[np.int64], F64, F64]:
+    """Per frame, whether the water's noise climbing under the time-varied gain crossed the half step before the
+    seabed shows (F,), and the seabed's steepest rise: its foot's row (F,), the level there (F,; never under the
+    water's) and the level it reaches (F,: the highest within ``2 span`` rows of the foot). ``prof`` (F, bins) is
+    the central beams' median envelope; a rise is taken over ``span`` rows. The noise is taken to have crossed
+    where the envelope reaches the half step before the foot of its steepest rise, and that rise is at least
+    :data:`CLIMB_RATIO` times the steepest one up to the crossing: the noise climbs, the seabed steps (a vertical
+    sidelobe's band that lights the seabed first steps as steeply as the main lobe after it)."""
+    f, n = prof.shape
+    h = no_seabed.sum(axis=1)
+    if n <= 2 * span:
+        return np.zeros(f, bool), np.zeros(f, np.int64), np.full(f, np.nan), np.full(f, np.nan)
+    rows = np.arange(n)[None, :]
+    rise = np.full((f, n), -np.inf)  # the rise over the span rows that end at each row
+    rise[:, span:] = np.nan_to_num(prof[:, span:] - prof[:, :-span], nan=-np.inf)
+    rise[rows < h[:, None]] = -np.inf
+    foot = (np.argmax(rise, axis=1) - span).astype(np.int64)
+    steepest = np.max(rise, axis=1)
+    crossed = (prof >= n_lvl + ONSET_STEP * (p_lvl[:, None] - n_lvl)) & (rows >= h[:, None])
+    cross = np.where(crossed.any(axis=1), np.argmax(crossed, axis=1), n)
+    before = np.max(np.where(rows <= cross[:, None], rise, -np.inf), axis=1)
+    climbed = (foot > cross) & (steepest >= CLIMB_RATIO * np.maximum(before, 1.0))
+    at = np.clip(foot, 0, n - 1)[:, None]
+    level = np.maximum(np.take_along_axis(prof, at, axis=1)[:, 0], np.take_along_axis(n_lvl, at, axis=1)[:, 0])
+    top = np.max(np.where((rows >= at) & (rows <= at + 2 * span), prof, -np.inf), axis=1)
+    return climbed, foot, level, np.maximum(top, level)
+
+
 def frame_edges(images: NDArray[np.uint8], geometry: SonarGeometry, pos: F64, rot: Rotation, point: F64,
                 normal: F64) -> tuple[F64, F64]:
     """Per frame, the effective steepest elevation (rad, above the fan's axis, in S) measured from its seabed
@@ -151,12 +194,18 @@ def frame_edge_profile(images: NDArray[np.uint8], geometry: SonarGeometry, pos: 
     with np.errstate(invalid="ignore"):
         no_seabed = r[None, :] < height[:, None]
     n_lvl, p_lvl, step_ok = _levels(env, no_seabed)
+    climbed, foot, foot_lvl, top = _noise_climb(median_u8(env).astype(np.float64), no_seabed, n_lvl, p_lvl,
+                                                max(1, round(STEP_M / geometry.bin_size)))
+    # where the noise climbed over the half step: the seabed's step from its foot to its top, none before it
+    base = np.where(climbed[:, None], foot_lvl[:, None], n_lvl)  # (F, bins)
+    top = np.where(climbed, top, p_lvl)
+    before = climbed[:, None] & (np.arange(env.shape[1])[None, :] < foot[:, None])
     amp = np.hypot(a, b)
     edges = np.full((env.shape[0], len(fractions)), np.nan)
     level = step = np.full(env.shape[0], np.nan)
     for k, fraction in enumerate(fractions):
-        lvl = n_lvl + fraction * (p_lvl[:, None] - n_lvl)  # (F, bins)
-        above = (env >= lvl[:, :, None]) & ~no_seabed[:, :, None]  # (F, bins, C)
+        lvl = base + fraction * (top[:, None] - base)  # (F, bins)
+        above = (env >= lvl[:, :, None]) & ~(no_seabed | before)[:, :, None]  # (F, bins, C)
         row = np.argmax(above, axis=1)  # (F, C): each central beam's onset row
         hit = np.take_along_axis(above, row[:, None, :], axis=1)[:, 0, :]
         g = height[:, None] / r[row]
@@ -170,7 +219,7 @@ def frame_edge_profile(images: NDArray[np.uint8], geometry: SonarGeometry, pos: 
             at = np.median(row, axis=1).astype(np.int64)[:, None]
             found = np.isfinite(edges[:, 0])
             level = np.where(found, np.take_along_axis(lvl, at, axis=1)[:, 0], np.nan)
-            step = np.where(found, p_lvl - np.take_along_axis(n_lvl, at, axis=1)[:, 0], np.nan)
+            step = np.where(found, p_lvl - np.take_along_axis(base, at, axis=1)[:, 0], np.nan)
     return edges, level, step
 
 

@@ -46,6 +46,58 @@ def test_frame_edges_recover_the_edge_the_seabed_shows(half_deg: float, alt: flo
     assert np.all(np.abs(edges - half_deg) < 0.5), edges
 
 
+@pytest.mark.parametrize(("half_deg", "alt", "noise_db", "absorption_db_per_m"),
+                         [(7.0, 5.5, -3.0, 0.9), (7.0, 6.5, -6.0, 0.9), (10.0, 4.0, -14.0, 2.6)])
+def test_frame_edges_not_fooled_by_the_water_noise_climbing_under_the_gain(half_deg: float, alt: float,
+                                                                          noise_db: float,
+                                                                          absorption_db_per_m: float) -> None:
+    """The water's noise, under the display's floor where no seabed can return and lifted along range by the
+    time-varied gain (spherical spreading and the absorption of 1.8 and 3 MHz: DIDSON, ARIS 3000), climbs through
+    half the water-to-seabed step before a hard-edged seabed shows: the edge is the seabed's steep onset, not where
+    the noise crosses that level."""
+    nominal = SonarGeometry.from_degrees(22.0, 14.0, window_start=0.75 * alt, window_length=2.0 * alt)
+    truth = replace(nominal, spread=np.radians(2.0 * half_deg))
+    rng = np.random.default_rng(7)
+    n = 6
+    pos = np.zeros((n, 3))
+    rot = Rotation.identity(n)
+    alts = np.full(n, alt)
+    onset = truth.flat_onset_ranges(pos, rot, alts)
+    r = nominal.ranges[None, :, None]
+    lpd = 255.0 / 60.0  # grey levels per dB of a 60 dB display
+    # exponential speckle of the noise's power, its mean noise_db under the floor at the sonar's height
+    noise = lpd * (noise_db + 30.0 * np.log10(r / alt) + 2.0 * absorption_db_per_m * (r - alt)
+                   + 10.0 * np.log10(rng.exponential(1.0, (n, nominal.n_bins, nominal.n_beams))))
+    seabed = 100.0 + lpd * 10.0 * np.log10(rng.exponential(1.0, noise.shape))
+    img = np.where(r >= onset[:, None, :], np.maximum(seabed, noise), noise)
+    imgs = np.clip(img, 0, 255).astype(np.uint8)
+    profile = np.median(imgs[:, :, 40:56], axis=(0, 2))
+    half = 0.5 * np.median(imgs[:, nominal.ranges > onset.max() + 0.5, 40:56])
+    assert (profile[nominal.ranges < onset.min() - 0.3] >= 0.5 * half).any()  # the noise reaches a quarter step
+    edges = np.degrees(frame_edges(imgs, nominal, pos, rot, *_flat(pos, alts))[0])
+    assert np.all((edges > half_deg - 1.5) & (edges < half_deg + 0.6)), edges  # inside it: the nominal edge holds
+
+
+def test_frame_edges_a_vertical_sidelobe_band_that_lights_the_seabed_first_is_its_onset() -> None:
+    """Under a sinc^2 vertical pattern the seabed shows first in a band of the first sidelobe, then a null, then the
+    main lobe: the band steps as the main lobe does, the water is dark, and the edge is the band's."""
+    nominal = SonarGeometry.from_degrees(30.0, 14.0)
+    band = replace(nominal, spread=np.radians(2.0 * 20.0))
+    null = replace(nominal, spread=np.radians(2.0 * 15.0))
+    main = replace(nominal, spread=np.radians(2.0 * 10.0))
+    rng = np.random.default_rng(11)
+    n = 6
+    pos, rot, alts = np.zeros((n, 3)), Rotation.identity(n), np.full(n, 4.0)
+    r = nominal.ranges[None, :, None]
+    level = np.where(r >= main.flat_onset_ranges(pos, rot, alts)[:, None, :], 120.0,
+                     np.where(r >= null.flat_onset_ranges(pos, rot, alts)[:, None, :], 40.0,
+                              np.where(r >= band.flat_onset_ranges(pos, rot, alts)[:, None, :], 80.0, 0.0)))
+    img = level + np.where(level > 0, rng.normal(0.0, 8.0, level.shape), 0.0)
+    imgs = np.clip(img, 0, 255).astype(np.uint8)
+    edges = np.degrees(frame_edges(imgs, nominal, pos, rot, *_flat(pos, alts))[0])
+    assert np.all(np.abs(edges - 20.0) < 1.0), edges
+
+
 def test_frame_edges_none_without_seabed_or_altitude() -> None:
     g = SonarGeometry.from_degrees(30.0, 14.0)
     rng = np.random.default_rng(4)

@@ -215,3 +215,25 @@ def test_from_checkpoint_runs_the_survey_stage_on_its_networks(tmp_path: Path) -
     before = out.read_bytes()
     assert main(args) == 1  # an existing --out is replaced only with --force
     assert out.read_bytes() == before
+
+
+def test_cache_key_follows_the_code_the_clouds_pass_through(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """A survey cache made by other recon, simulator or engine code is not reused: the key holds their digest."""
+    import auvlink.evaluation.survey_clouds as sc
+
+    key = cache_key(5, "random", "didson", 128, 1.5, "seabed")
+    assert key == cache_key(5, "random", "didson", 128, 1.5, "seabed")
+    assert len(sc.code_digest()) == 64
+    # a package of the same names with one line changed: another digest, another key
+    pkg = tmp_path / "fake_recon"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "edge.py").write_text("STEP = 0.5\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(sc, "CODE_PACKAGES", ("fake_recon",))
+    sc.code_digest.cache_clear()
+    first = cache_key(5, "random", "didson", 128, 1.5, "seabed")
+    (pkg / "edge.py").write_text("STEP = 0.25\n")
+    sc.code_digest.cache_clear()
+    assert cache_key(5, "random", "didson", 128, 1.5, "seabed") not in (first, key)
+    sc.code_digest.cache_clear()

@@ -16,13 +16,16 @@ extension, seabed removal, clustering and the fusion of passes. Keep the draw se
 is evaluated on.
 
 Each survey's clouds are cached (``CACHE/surveys/KEY-NNNN.npz``, the key from the seed, the survey's acoustic
-space, the sonar and the normalization), so a longer draw reuses a shorter one's surveys. Surveys run in ``workers``
+space, the sonar, the normalization and a digest of the code the clouds pass through, :func:`code_digest`), so a
+longer draw reuses a shorter one's surveys and a changed recon or simulator harvests afresh. Surveys run in ``workers``
 processes (spawned, one thread each); the clouds do not depend on the number of workers.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import importlib
 import json
 import multiprocessing as mp
 import tempfile
@@ -48,6 +51,9 @@ from classify.training.dataset import CloudSet
 MATCH_M = 1.0
 #: version of the cached survey clouds (bumped when what is stored changes)
 CACHE_VERSION = 1
+#: the packages a survey's clouds pass through: the simulator that renders it, the codecs of its log, the engine
+#: and recon that replay it
+CODE_PACKAGES = ("auvlink.sim", "auvlink.codecs", "auvlink.pipeline", "recon")
 
 
 @dataclass(frozen=True)
@@ -117,10 +123,23 @@ def harvest_survey(job: CloudJob) -> dict[str, Any]:
     return out
 
 
+@functools.cache
+def code_digest() -> str:
+    """SHA-256 of the source the survey clouds pass through (:data:`CODE_PACKAGES`): a cache made by other code
+    (recon placing or thresholding otherwise) is not reused."""
+    h = hashlib.sha256()
+    for pkg in CODE_PACKAGES:
+        root = Path(importlib.import_module(pkg).__file__ or "").parent
+        for path in sorted(root.rglob("*.py")):
+            h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
 def cache_key(seed: int, acoustics: str, sonar: str, n_points: int, scale_m: float, z_ref: str,
               small: bool = False) -> str:
-    """The cache key of a draw's survey clouds (what the clouds depend on besides the code)."""
-    doc = json.dumps([CACHE_VERSION, seed, acoustics, sonar, n_points, scale_m, z_ref] + (["small"] if small else []))
+    """The cache key of a draw's survey clouds: what the clouds depend on, the code they pass through included."""
+    doc = json.dumps([CACHE_VERSION, seed, acoustics, sonar, n_points, scale_m, z_ref, code_digest()]
+                     + (["small"] if small else []))
     return hashlib.sha256(doc.encode()).hexdigest()[:16]
 
 
