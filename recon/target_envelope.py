@@ -23,10 +23,8 @@ MIN_OBJECT_HEIGHT_M = LOWEST_OBJECT_M / 2
 #: m: a top detected lower than this is not an object on any seabed: a third of the lowest object (the detected
 #: top of a 0.3 m half pipe at 30 deg of tilt is 0.13-0.15 m: the steepest ray grazes its rounded top)
 LOWEST_TOP_M = round(LOWEST_OBJECT_M / 3, 3)
-#: m: the seabed-noise threshold of object points never exceeds the lowest detected top (a third of the lowest
-#: object's height): on a rough seabed (0.05-0.1 m rms: 5 sigma is 0.25-0.5 m) a higher one puts the lowest objects'
-#: points under it, and the crests it lets through are named clutter by the classifier (its decision reads the
-#: seabed's own shadows around each cluster); a noise measured on a misregistered survey is capped alike
-MAX_SEABED_THRESHOLD_M = LOWEST_TOP_M
+#: m: the seabed-noise threshold of object points never exceeds two thirds of the lowest object's height (a
+#: noise measured on a misregistered survey would otherwise put the lowest objects under the seabed)
+MAX_SEABED_THRESHOLD_M = round(2 * LOWEST_OBJECT_M / 3, 3)
 #: m: the points this near (horizontally) a point of an object's top are its flanks: a sixth of the largest object
 FLANK_RADIUS_M = LARGEST_OBJECT_M / 6
