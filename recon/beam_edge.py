@@ -118,11 +118,10 @@ def plane_elevation(a: F64, b: F64, k: F64) -> F64:
         return np.asarray(np.arctan2(b, a) - np.arccos(np.clip(k / np.hypot(a, b), -1.0, 1.0)), np.float64)
 
 
-def _levels(env: NDArray[np.uint8], no_seabed: NDArray[np.bool_]) -> tuple[F64, F64, NDArray[np.bool_]]:
+def _levels(prof: F64, no_seabed: NDArray[np.bool_]) -> tuple[F64, F64, NDArray[np.bool_]]:
     """Per frame and row the water level ``N`` (F, bins), per frame the seabed level ``P`` (F,), both of the
-    envelopes (F, bins, C) in grey levels, and whether that step is a seabed onset (module docstring);
-    ``no_seabed`` (F, bins) the rows no seabed can return from (a prefix of each frame's rows)."""
-    prof = median_u8(env)  # (F, bins): the central beams' median (an object in a few beams is outvoted)
+    central beams' median envelope ``prof`` (F, bins) in grey levels, and whether that step is a seabed onset
+    (module docstring); ``no_seabed`` (F, bins) the rows no seabed can return from (a prefix of each frame's rows)."""
     rows = np.arange(prof.shape[1], dtype=np.float64)
     h = no_seabed.sum(axis=1).astype(np.float64)  # (F,): rows before the seabed can show
     has_water = h >= 8
@@ -193,9 +192,10 @@ def frame_edge_profile(images: NDArray[np.uint8], geometry: SonarGeometry, pos: 
     height, a, b = plane_terms(geometry, rot, pos, point, normal, az)
     with np.errstate(invalid="ignore"):
         no_seabed = r[None, :] < height[:, None]
-    n_lvl, p_lvl, step_ok = _levels(env, no_seabed)
-    climbed, foot, foot_lvl, top = _noise_climb(median_u8(env).astype(np.float64), no_seabed, n_lvl, p_lvl,
-                                                max(1, round(STEP_M / geometry.bin_size)))
+    prof = median_u8(env)  # (F, bins): the central beams' median (an object in a few beams is outvoted)
+    n_lvl, p_lvl, step_ok = _levels(prof, no_seabed)
+    span = max(1, round(STEP_M / geometry.bin_size))
+    climbed, foot, foot_lvl, top = _noise_climb(prof, no_seabed, n_lvl, p_lvl, span)
     # where the noise climbed over the half step: the seabed's step from its foot to its top, none before it
     base = np.where(climbed[:, None], foot_lvl[:, None], n_lvl)  # (F, bins)
     top = np.where(climbed, top, p_lvl)
