@@ -76,9 +76,13 @@ class OnsetStage:
         known = self._slope_known(self._model)
         self._tracker.set_known(known)
         lead_m = band.lead_m if known else band.lead_flat_m
-        # the frames before these (recon.water_threshold), with ReconConfig.calibrate; else the frame's threshold
-        background = self._water.thresholds if self.config.calibrate else np.full(g.n_bins, np.nan)
-        rows = np.fmax(np.fmax(thr[:, None], background[None, :]), floor)
+        # a column's seabed return is where it reaches the seabed's own level (the half step at which the
+        # effective edge is measured, recon.beam_edge) over the frame's water: not over the background pooled from
+        # earlier frames (recon.water_threshold), which near the onset holds the seabed's glow and crests of frames
+        # whose onset lay nearer; above the seabed's level the search finds the seabed past its onset, and its
+        # return, placed on the steepest ray, lies under the seabed (0.25 m at the median under a Gaussian pattern
+        # 2.9 widths wide: tests/test_recon_seabed_band.py)
+        rows = np.fmax(np.broadcast_to(thr[:, None], (thr.shape[0], g.n_bins)), floor)
         sf, sb, sr = seabed_returns(g, images, onset, rows, hc.margin_m, band, lead_m)
         onset = self._tracker.correct(g, onset, sf, sb, sr)
         if self.config.calibrate:
