@@ -3,13 +3,9 @@ on a rough, sloped seabed the fan sweeps sideways over seabed the fit ahead does
 trails of false objects (a random survey of 6 objects, seed 1234 survey 37, gave 15 detections, 8 of them
 in two turns; with the turns skipped 6). Here: only the turn is skipped, and nothing false comes from it.
 
-Known weakness (strict xfail below): this empty seabed (0.07 m rough, 9.9 deg slope) gives one false object
-while the fitted seabed does not know the slope yet (its first 15 m). The edge measured then against that
-seabed is 1-2.4 deg wider than the beam's (hard, 7 deg) edge, so the seabed samples taken at long range beyond
-the end of line 1 lie 0.5 m deep, and later returns from there, placed with a better edge, stand above them
-(17-19 s into the line). With the edge held at the true one until the slope is known, the crests of the line's
-first seconds stand 0.18-0.30 m above the texture grid (its threshold 0.20 m: 5 sigma of a measured 0.049 m)
-instead, with the seabed's onset at a quarter of its step as at half."""
+An empty rough slope (0.07 m rough, 9.9 deg slope) gives nothing: the seabed samples of the first metres, taken
+while the fitted seabed does not know the slope yet, are sought at the seabed's own level (recon.onset_stage), so
+they lie on the seabed and no later return stands above them."""
 
 from __future__ import annotations
 
@@ -62,8 +58,6 @@ def test_turn_frames_are_skipped_and_counted(log: Path) -> None:
     assert off.recon_stats["frames_processed"] == res.recon_stats["frames_processed"] + turning
 
 
-@pytest.mark.xfail(strict=True, reason="crests of a 0.07 m rough 9.9 deg slope before its slope is known: one "
-                   "false object in the first seconds of line 1 (module docstring)")
 def test_an_empty_rough_slope_gives_nothing(log: Path) -> None:
     res = run_log(log, classify=False, progress=False, engine_config=EngineConfig(frame_block=FRAME_BLOCK))
     assert res.detections == [], [(d.class_name, d.position_ned) for d in res.detections]
