@@ -16,13 +16,11 @@ from recon.reconstructor import ReconConfig
 
 
 def default_recon_config() -> ReconConfig:
-    """The pipeline's reconstruction settings, chosen on simulated missions (see benchmarks/RESULTS.md).
-
-    Highlight threshold median + 4 MADs (the simulator's log-compressed frames: speckle up to ~85 grey
-    levels, objects 140-190; the k = 8 default of recon missed the box). Front-slope correction on
-    (arc re-placement): mean point-to-mesh distance 0.18 -> 0.03 m on the demo scene with true
-    navigation. DBSCAN eps 0.5 m keeps each reef, whose frames and openings leave gaps of 0.3-0.5 m,
-    in one cluster.
+    """The pipeline's reconstruction settings (see benchmarks/RESULTS.md): the frame's water threshold at its median
+    + 4 robust standard deviations (recon.highlight; with calibration the rows' thresholds follow the image's own
+    statistics above it), the front-slope correction on (arc re-placement: mean point-to-mesh distance 0.18 -> 0.03 m
+    on the demo scene with true navigation), DBSCAN eps 0.5 m (a reef's frames and openings leave gaps of 0.3-0.5 m:
+    each reef stays one cluster).
     """
     return ReconConfig(highlight=HighlightConfig(k=4.0), front_slope=True,
                        cluster=ClusterConfig(eps=0.5))
