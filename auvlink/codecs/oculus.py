@@ -72,7 +72,8 @@ class OculusPing:
     """A SimplePingResult (msg 0x23, V1 for versions 0/1, V2 for version 2).
 
     ``image`` is (n_ranges, n_beams) of uint8/uint16/uint32, row 0 the nearest range line;
-    ``row_gain`` the per-range-line gain (float32, one per row) when the fire flags ask for it.
+    ``row_gain`` the per-range-line gain (float32, one per row) when the fire flags ask for it. Decoded, ``image``
+    is a read-only view on the message's bytes (no copy of a 2 MB M750d image; the record keeps the message alive).
     """
 
     header: OculusHeader
@@ -144,8 +145,8 @@ def _decode_ping(raw: bytes, header: OculusHeader) -> OculusPing:
     table = np.frombuffer(raw, "<i2", beams, pos)
     block = np.frombuffer(raw, np.uint8, size, start).reshape(rows, stride)
     dtype = np.dtype(f"<u{sample}")
-    image = block[:, gain:].copy().view(dtype).reshape(rows, beams)
-    row_gain = block[:, :gain].copy().view("<f4").reshape(rows) if gain else None
+    image = block[:, gain:].view(dtype)  # a view (read-only, like ``raw``): a ping is read, never written
+    row_gain = block[:, :gain].copy().view("<f4").reshape(rows) if gain else None  # 4 B a row: copied
     extra = {"heading_deg": p["heading"], "pitch_deg": p["pitch"], "roll_deg": p["roll"],
              "spares": tuple(p[f"spare{k}"] for k in range(4))} if version == 2 else {}
     return OculusPing(
