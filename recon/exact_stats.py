@@ -3,12 +3,17 @@
 - Over the last axis of uint8 stacks (:func:`median_u8`, :func:`median_mad_u8`): a stable sort of 8- or 16-bit
   integers is a radix sort in numpy, while ``np.median`` of float64 partitions. The answers are exact: the median of
   integers is a multiple of 1/2 and the median of their absolute deviations from it a multiple of 1/4.
+- Across a stack of equal-shape uint8 arrays (:func:`median_stack_u8`): an odd-even transposition sort by
+  element-wise minima and maxima (k rounds over k arrays), each step one pass over whole arrays, where ``np.median``
+  over the stack's first axis partitions every element's few values one lane at a time.
 - Per row over a mask (:func:`masked_percentile`): ``np.nanpercentile(np.where(valid, x, nan), q, axis=1)`` in one
   sort instead of one Python-level call per row, with numpy's "linear" method's own arithmetic (virtual index
   ``(m - 1) q``, its two neighbours, numpy's two-sided lerp).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,6 +53,21 @@ def median_mad_u8(x: NDArray[np.uint8]) -> tuple[F64, F64]:
         w = n - j + 1  # windows of j sorted values
         dev_sum += np.maximum(m - s2[..., :w], s2[..., j - 1:] - m).min(axis=-1)
     return twice_med.astype(np.float64) / 2.0, dev_sum.astype(np.float64) / 4.0
+
+
+def median_stack_u8(arrays: Sequence[NDArray[np.uint8]]) -> F64:
+    """``np.median(np.stack(arrays), axis=0)`` of one or more equal-shape uint8 arrays (float64; module docstring):
+    the middle two of each element's sorted values averaged, exact (a multiple of 1/2)."""
+    s = [np.array(a, dtype=np.uint8) for a in arrays]  # copies, sorted in place across the list
+    k = len(s)
+    if k == 0:
+        raise ValueError("median of no arrays")
+    for r in range(k):  # odd-even transposition: after k rounds the list is sorted element by element
+        for i in range(r % 2, k - 1, 2):
+            lo = np.minimum(s[i], s[i + 1])
+            np.maximum(s[i], s[i + 1], out=s[i + 1])
+            s[i] = lo
+    return (s[(k - 1) // 2].astype(np.float64) + s[k // 2]) / 2.0
 
 
 def masked_percentile(x: F64, valid: NDArray[np.bool_], pct: float) -> F64:

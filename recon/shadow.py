@@ -37,6 +37,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from recon.beam_edge import plane_elevation, plane_terms
+from recon.exact_stats import median_stack_u8
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
@@ -219,7 +220,7 @@ class ShadowTops:
         sel = [img for p, img in self._ring if lo <= p <= hi and img.shape == (rows, beams)]
         if len(sel) < MIN_REFERENCE:
             return None
-        return np.median(np.stack(sel), axis=0).astype(np.float32)
+        return median_stack_u8(sel).astype(np.float32)
 
     def _frame_tops(self, img: F32, ref: F32, row0: int, on: NDArray[np.int64], levels: tuple[float, float],
                     g: SonarGeometry, pos: F64, rot: Rotation, point: F64, normal: F64) -> F64:

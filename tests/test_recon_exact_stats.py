@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from recon.exact_stats import masked_percentile, median_mad_u8, median_u8
+from recon.exact_stats import masked_percentile, median_mad_u8, median_stack_u8, median_u8
 
 shapes = st.tuples(st.integers(1, 5), st.integers(1, 40))
 
@@ -22,6 +22,12 @@ def test_byte_medians_are_numpys(x: np.ndarray) -> None:
     med, mad = median_mad_u8(x)
     np.testing.assert_array_equal(med, ref)
     np.testing.assert_array_equal(mad, np.median(np.abs(x - ref[..., None]), axis=-1))
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(np.uint8, st.tuples(st.integers(1, 13), st.integers(0, 6), st.integers(1, 20))))
+def test_stack_medians_are_numpys(x: np.ndarray) -> None:
+    np.testing.assert_array_equal(median_stack_u8(list(x)), np.median(x, axis=0))
 
 
 @settings(max_examples=300, deadline=None)
