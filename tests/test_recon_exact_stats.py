@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from recon.exact_stats import masked_percentile, median_mad_u8, median_stack_u8, median_u8
+from recon.exact_stats import NETWORK_MAX, masked_percentile, median_mad_u8, median_stack_u8, median_u8
 
 shapes = st.tuples(st.integers(1, 5), st.integers(1, 40))
 
@@ -22,6 +22,16 @@ def test_byte_medians_are_numpys(x: np.ndarray) -> None:
     med, mad = median_mad_u8(x)
     np.testing.assert_array_equal(med, ref)
     np.testing.assert_array_equal(mad, np.median(np.abs(x - ref[..., None]), axis=-1))
+
+
+def test_byte_medians_every_length() -> None:
+    """Every last-axis length on both sides of NETWORK_MAX (the sorting network and the radix sort), with ties."""
+    rng = np.random.default_rng(2)
+    for n in range(1, NETWORK_MAX + 12):
+        for shape in ((n,), (7, n), (3, 0, n), (2, 5, n)):
+            x = rng.integers(0, 256, shape).astype(np.uint8)
+            x[..., ::3] = x[..., ::3] // 64 * 64
+            np.testing.assert_array_equal(median_u8(x), np.median(x.astype(np.float64), axis=-1))
 
 
 @settings(max_examples=200, deadline=None)
