@@ -9,6 +9,8 @@
 - Across a stack of equal-shape uint8 arrays (:func:`median_stack_u8`): an odd-even transposition sort by
   element-wise minima and maxima (k rounds over k arrays), each step one pass over whole arrays, where ``np.median``
   over the stack's first axis partitions every element's few values one lane at a time.
+- Of grey levels that are medians of bytes (multiples of 1/2, :func:`split_medians_halves`): one count of twice
+  their values (511 levels) per group, each median read off its cumulative counts.
 - Per row over a mask (:func:`masked_percentile`): ``np.nanpercentile(np.where(valid, x, nan), q, axis=1)`` in one
   sort instead of one Python-level call per row, with numpy's "linear" method's own arithmetic (virtual index
   ``(m - 1) q``, its two neighbours, numpy's two-sided lerp).
@@ -108,6 +110,19 @@ def median_stack_u8(arrays: Sequence[NDArray[np.uint8]]) -> F64:
             np.maximum(s[i], s[i + 1], out=s[i + 1])
             s[i] = lo
     return (s[(k - 1) // 2].astype(np.float64) + s[k // 2]) / 2.0
+
+
+def split_medians_halves(x: NDArray[np.floating], first: NDArray[np.bool_]) -> tuple[float, float]:
+    """``np.median(x[first])`` and ``np.median(x[~first])`` (module docstring) of ``x`` in 0..255 in steps of 1/2
+    (medians of uint8 values: :func:`median_stack_u8`), ``first`` of its shape; neither part may be empty."""
+    keys = (np.asarray(x) * 2).astype(np.intp) + np.where(first, 0, 511)
+    counts = np.bincount(keys.ravel(), minlength=1022).reshape(2, 511)
+    out = []
+    for c in counts:
+        cum, n = np.cumsum(c), int(c.sum())
+        lo, hi = np.searchsorted(cum, [(n - 1) // 2, n // 2], side="right")  # the two middle values' twice
+        out.append((int(lo) + int(hi)) / 4.0)
+    return out[0], out[1]
 
 
 def masked_percentile(x: F64, valid: NDArray[np.bool_], pct: float) -> F64:
