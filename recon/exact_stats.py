@@ -84,16 +84,23 @@ def median_mad_u8(x: NDArray[np.uint8]) -> tuple[F64, F64]:
 
     One sort: the ``j`` values nearest the median are ``j`` consecutive values of the sorted row, so the ``j``-th
     smallest deviation is the least, over those windows, of the larger deviation at a window's two ends (in twice
-    the grey levels, integers: exact)."""
+    the grey levels, integers: exact). Along the windows the lower end's deviation never grows and the upper end's
+    never falls, so that least is at the first window whose ends sum to at least twice the median (the upper end's
+    deviation there) or at the window before it (the lower end's)."""
     n = x.shape[-1]
     s = np.sort(x, axis=-1, kind="stable")
     twice_med = _middle_sum(s)  # 0..510
-    s2 = 2 * s.astype(np.int16)
+    s16 = s.astype(np.int16)
     m = twice_med.astype(np.int16)[..., None]
+    never = np.int16(1024)  # above any deviation (twice the grey levels: 0..510)
     dev_sum = np.zeros(twice_med.shape, np.int32)  # the two middle deviations (twice the grey levels), summed
     for j in ((n - 1) // 2 + 1, n // 2 + 1):
         w = n - j + 1  # windows of j sorted values
-        dev_sum += np.maximum(m - s2[..., :w], s2[..., j - 1:] - m).min(axis=-1)
+        upper = np.add(s16[..., :w], s16[..., j - 1 :]) >= m  # False then True along the windows
+        c = np.where(upper[..., -1], np.argmax(upper, axis=-1), w)[..., None]  # the first window of upper ends
+        low = m - 2 * np.take_along_axis(s16, np.maximum(c - 1, 0), axis=-1)
+        high = 2 * np.take_along_axis(s16, np.minimum(c + j - 1, n - 1), axis=-1) - m
+        dev_sum += np.minimum(np.where(c >= 1, low, never), np.where(c < w, high, never))[..., 0]
     return twice_med.astype(np.float64) / 2.0, dev_sum.astype(np.float64) / 4.0
 
 
