@@ -85,13 +85,19 @@ def _envelope(images: NDArray[np.uint8], geometry: SonarGeometry) -> tuple[F64, 
     samples fill in; a surface's first bright bin stays where it is)."""
     az = geometry.azimuths
     central = np.abs(az) <= CENTRAL_FRACTION * np.abs(az).max()
-    cols = images[:, :, central]
+    idx = np.flatnonzero(central)
+    # a run of beams (a bearing table in order) is a slice: a view, where a mask gathers beam by beam
+    run = idx.size > 0 and idx[-1] - idx[0] + 1 == idx.size
+    cols = images[:, :, idx[0] : idx[-1] + 1] if run else images[:, :, central]
     k = max(1, round(ENVELOPE_M / geometry.bin_size))
-    env = cols.copy()
+    env = np.array(cols, dtype=np.uint8)
+    spare = np.empty_like(env)
     span = 1
     while span < k:  # running maximum over the k rows ending at each row, by doubling (log2 k passes)
         step = min(span, k - span)
-        np.maximum(env[:, step:], env[:, :-step].copy(), out=env[:, step:])
+        spare[:, :step] = env[:, :step]
+        np.maximum(env[:, step:], env[:, :-step], out=spare[:, step:])
+        env, spare = spare, env
         span += step
     return az[central], env
 

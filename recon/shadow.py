@@ -37,6 +37,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from recon.beam_edge import plane_elevation, plane_terms
+from recon.exact_stats import median_stack_u8, split_medians_halves
 from recon.sonar_geometry import SonarGeometry
 
 F64 = NDArray[np.float64]
@@ -108,13 +109,13 @@ def _levels(ref: F32, on: NDArray[np.int64]) -> tuple[float, float] | None:
     before = np.arange(ref.shape[0])[:, None] < on[None, :]
     if before.sum() < 8 * ref.shape[1] or (~before).sum() < 8 * ref.shape[1]:
         return None
-    water, seabed = float(np.median(ref[before])), float(np.median(ref[~before]))
+    water, seabed = split_medians_halves(ref, before)
     return (water, seabed) if seabed > water + 4.0 else None
 
 
 def _runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
     """(rows, beams): where ``mask`` holds over the ``n`` rows from each row on."""
-    c = np.zeros((mask.shape[0] + 1, mask.shape[1]), np.int32)
+    c = np.zeros((mask.shape[0] + 1, mask.shape[1]), np.int16 if mask.shape[0] < 2**15 else np.int32)
     np.cumsum(mask, axis=0, out=c[1:])
     out = np.zeros(mask.shape, bool)
     if n <= mask.shape[0]:
@@ -180,6 +181,7 @@ class ShadowTops:
         gap = round(ECHO_GAP_M / geometry.bin_size) + smooth
         n_bins = images.shape[1]
         n_dec = n_bins // dec
+        terms = plane_terms(geometry, rot, pos, point, normal, geometry.azimuths)  # per frame, all beams at once
         for f in range(images.shape[0]):
             xy = pos[f, :2]
             if self._last_xy is not None:
@@ -204,7 +206,8 @@ class ShadowTops:
             row0 = max(0, int(on.min()) - gap)  # the rows an object's echo and shadow beyond the onset can hold
             sm = uniform_filter1d(images[f, row0:].astype(np.float32), smooth, axis=0, mode="nearest")
             full = ref[np.minimum(np.arange(row0, n_bins) // dec, n_dec - 1)]  # each row's reference row
-            tops = self._frame_tops(sm, full, row0, on, levels, geometry, pos[f], rot[f], point[f], normal[f])
+            plane = (float(terms[0][f]), terms[1][f], terms[2][f])
+            tops = self._frame_tops(sm, full, row0, on, levels, geometry, pos[f], rot[f], point[f], normal[f], plane)
             if tops.shape[0]:
                 self.shadows += tops.shape[0]
                 self._tops.append(np.column_stack([tops, np.full(tops.shape[0], self._path),
@@ -219,13 +222,15 @@ class ShadowTops:
         sel = [img for p, img in self._ring if lo <= p <= hi and img.shape == (rows, beams)]
         if len(sel) < MIN_REFERENCE:
             return None
-        return np.median(np.stack(sel), axis=0).astype(np.float32)
+        return median_stack_u8(sel).astype(np.float32)
 
     def _frame_tops(self, img: F32, ref: F32, row0: int, on: NDArray[np.int64], levels: tuple[float, float],
-                    g: SonarGeometry, pos: F64, rot: Rotation, point: F64, normal: F64) -> F64:
+                    g: SonarGeometry, pos: F64, rot: Rotation, point: F64, normal: F64,
+                    plane: tuple[float, F64, F64]) -> F64:
         """(n, 3) shadow tops of one frame: north, east, height. ``img`` and ``ref``: the smoothed image and the
         reference (rows from ``row0``, beams), ``on`` each beam's onset row, ``levels`` the water's and the
-        seabed's level (:func:`_levels`)."""
+        seabed's level (:func:`_levels`), ``plane`` the sonar's height over the seabed plane and each beam's terms
+        ``a``, ``b`` (beams,) (:func:`recon.beam_edge.plane_terms`)."""
         n_rows = img.shape[0]
         rows = np.arange(n_rows)
         before = (rows + row0)[:, None] < on[None, :]
@@ -242,8 +247,9 @@ class ShadowTops:
         starts = dark_n & ~prev
         if not starts.any():
             return np.zeros((0, 3))
-        last_echo = np.maximum.accumulate(np.where(echo, rows[:, None], -n_rows), axis=0)
-        next_back = np.minimum.accumulate(np.where(back, rows[:, None], 2 * n_rows)[::-1], axis=0)[::-1]
+        rows16 = rows.astype(np.int16)[:, None]  # rows < 2 ** 14: the row indices below in 16 bits
+        last_echo = np.maximum.accumulate(np.where(echo, rows16, np.int16(-n_rows)), axis=0)
+        next_back = np.minimum.accumulate(np.where(back, rows16, np.int16(2 * n_rows))[::-1], axis=0)[::-1]
         r0, b0 = np.nonzero(starts & (rows[:, None] - last_echo <= ECHO_GAP_M / g.bin_size))
         r1 = next_back[r0, b0]
         ok = r1 < n_rows - END_MARGIN_M / g.bin_size
@@ -259,14 +265,14 @@ class ShadowTops:
             return np.zeros((0, 3))
         r_top, r_s = g.ranges[r0 + row0], g.ranges[r1 + row0]
         az = g.azimuths[b0]
-        height, a, b = plane_terms(g, rot, pos[None], point[None], normal[None], az)
-        k = height[0] / r_s
-        ok = k <= np.hypot(a[0], b[0])
-        phi = plane_elevation(a[0], b[0], k)
+        height, a, b = plane[0], plane[1][b0], plane[2][b0]
+        k = height / r_s
+        ok = k <= np.hypot(a, b)
+        phi = plane_elevation(a, b, k)
         p_b = r_top[:, None] * g.directions_body(phi, az) + g.mounting.lever
         world = rot.apply(p_b) + pos
         h = (world - point) @ normal
-        ok &= (h > 0.0) & (h < height[0])
+        ok &= (h > 0.0) & (h < height)
         return np.column_stack([world[ok, :2], h[ok]])
 
     def height(self, points: F64) -> float:

@@ -74,13 +74,20 @@ def _quantile_rows(cum: NDArray[np.float64], q: float) -> F64:
 
 
 def water_histogram(images: NDArray[np.uint8], limits: I64) -> F64:
-    """(bins, 256) counts of the grey levels of a batch (F, bins, beams) in rows < ``limits`` (F, beams)."""
+    """(bins, 256) counts of the grey levels of a batch (F, bins, beams) in rows < ``limits`` (F, beams).
+
+    One ``bincount`` of ``row * 256 + grey`` (as numpy's index type, which ``bincount`` reads without a copy); the
+    pixels at or past their beam's limit, all in the rows between the least and the greatest limit, are sent to one
+    extra bin that is dropped."""
     n_bins = images.shape[1]
     n = int(np.clip(limits.max(initial=0), 0, n_bins))  # rows past every beam's limit hold no water pixel
-    rows = np.arange(n, dtype=np.int32)[None, :, None]
-    head = images[:, :n]
-    keys = (rows * 256 + head)[rows < limits[:, None, :]]
-    return np.bincount(keys, minlength=n_bins * 256).reshape(n_bins, 256).astype(np.float64)
+    lo = int(np.clip(limits.min(initial=0), 0, n))  # rows before every beam's limit are water throughout
+    keys = np.empty((images.shape[0], n, images.shape[2]), np.intp)
+    np.add(images[:, :n], (np.arange(n, dtype=np.intp) * 256)[None, :, None], out=keys)
+    past = np.arange(lo, n)[None, :, None] >= limits[:, None, :]
+    keys[:, lo:n][past] = n_bins * 256
+    counts = np.bincount(keys.ravel(), minlength=n_bins * 256 + 1)[: n_bins * 256]
+    return counts.reshape(n_bins, 256).astype(np.float64)
 
 
 def histogram_thresholds(hist: F64) -> F64:

@@ -172,3 +172,16 @@ def test_row_rule_is_speckles_false_alarm_level() -> None:
     fresh, _ = _log_speckle(rng, (2_000_000,), 120.0)
     assert PFA / 2 < float((fresh > level).mean()) < 2 * PFA
     assert level < med + 4.0 * 1.4826 * mad - 30.0  # a Gaussian's 4 robust sigmas: 36 levels higher
+
+
+def test_water_histogram_counts_the_pixels_before_each_limit() -> None:
+    """Every (row, grey level) pair of the pixels before their beam's limit, whatever the limits (negative, zero,
+    past the image, alike or spread over the rows)."""
+    rng = np.random.default_rng(11)
+    for lo_lim, hi_lim in ((-3, 0), (0, 41), (12, 13), (-5, 60), (40, 41)):
+        imgs = rng.integers(0, 256, (4, 40, 9)).astype(np.uint8)
+        limits = rng.integers(lo_lim, hi_lim, (4, 9))
+        rows = np.arange(40)[None, :, None]
+        keys = (rows * 256 + imgs)[rows < limits[:, None, :]]
+        ref = np.bincount(keys, minlength=40 * 256).reshape(40, 256)
+        np.testing.assert_array_equal(water_histogram(imgs, limits), ref)

@@ -9,7 +9,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from recon.exact_stats import masked_percentile, median_mad_u8, median_u8
+from recon.exact_stats import (
+    NETWORK_MAX,
+    masked_percentile,
+    median_mad_u8,
+    median_stack_u8,
+    median_u8,
+    split_medians_halves,
+)
 
 shapes = st.tuples(st.integers(1, 5), st.integers(1, 40))
 
@@ -22,6 +29,32 @@ def test_byte_medians_are_numpys(x: np.ndarray) -> None:
     med, mad = median_mad_u8(x)
     np.testing.assert_array_equal(med, ref)
     np.testing.assert_array_equal(mad, np.median(np.abs(x - ref[..., None]), axis=-1))
+
+
+def test_byte_medians_every_length() -> None:
+    """Every last-axis length on both sides of NETWORK_MAX (the sorting network and the radix sort), with ties."""
+    rng = np.random.default_rng(2)
+    for n in range(1, NETWORK_MAX + 12):
+        for shape in ((n,), (7, n), (3, 0, n), (2, 5, n)):
+            x = rng.integers(0, 256, shape).astype(np.uint8)
+            x[..., ::3] = x[..., ::3] // 64 * 64
+            np.testing.assert_array_equal(median_u8(x), np.median(x.astype(np.float64), axis=-1))
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(np.uint8, st.tuples(st.integers(1, 13), st.integers(0, 6), st.integers(1, 20))))
+def test_stack_medians_are_numpys(x: np.ndarray) -> None:
+    np.testing.assert_array_equal(median_stack_u8(list(x)), np.median(x, axis=0))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.data(), st.tuples(st.integers(1, 30), st.integers(1, 12)))
+def test_split_medians_are_numpys(data: st.DataObject, shape: tuple[int, int]) -> None:
+    x = data.draw(arrays(np.int16, shape, elements=st.integers(0, 510))).astype(np.float32) / 2
+    first = data.draw(arrays(np.bool_, shape))
+    if first.all() or not first.any():
+        return
+    assert split_medians_halves(x, first) == (float(np.median(x[first])), float(np.median(x[~first])))
 
 
 @settings(max_examples=300, deadline=None)
