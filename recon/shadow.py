@@ -247,9 +247,10 @@ class ShadowTops:
         starts = dark_n & ~prev
         if not starts.any():
             return np.zeros((0, 3))
-        rows16 = rows.astype(np.int16)[:, None]  # rows < 2 ** 14: the row indices below in 16 bits
-        last_echo = np.maximum.accumulate(np.where(echo, rows16, np.int16(-n_rows)), axis=0)
-        next_back = np.minimum.accumulate(np.where(back, rows16, np.int16(2 * n_rows))[::-1], axis=0)[::-1]
+        idx = np.int16 if 2 * n_rows < 2**15 else np.int32  # the row indices below (to 2 n_rows) in 16 bits if they fit
+        rows_i = rows.astype(idx)[:, None]
+        last_echo = np.maximum.accumulate(np.where(echo, rows_i, idx(-n_rows)), axis=0)
+        next_back = np.minimum.accumulate(np.where(back, rows_i, idx(2 * n_rows))[::-1], axis=0)[::-1]
         r0, b0 = np.nonzero(starts & (rows[:, None] - last_echo <= ECHO_GAP_M / g.bin_size))
         r1 = next_back[r0, b0]
         ok = r1 < n_rows - END_MARGIN_M / g.bin_size
