@@ -172,6 +172,8 @@ def _harvest(n: int, seed: int, *, n_points: int, scale_m: float, z_ref: str, ca
             for part in pool.imap(harvest_survey, jobs):
                 parts.append(part)
                 bar.update(1)
+            pool.close()  # the workers end on their own (terminating them leaks their semaphores)
+            pool.join()
     bar.close()
     return parts
 

@@ -151,6 +151,8 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
                 records.append(r)
                 if progress:
                     _progress(r, len(records), n, t0)
+            p.close()  # the workers end on their own: terminating them (the context's exit) leaks their semaphores
+            p.join()
     records.sort(key=lambda r: int(r["index"]))
     result = summarize(records)
     if at is not None:
