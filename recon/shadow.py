@@ -113,9 +113,15 @@ def _levels(ref: F32, on: NDArray[np.int64]) -> tuple[float, float] | None:
     return (water, seabed) if seabed > water + 4.0 else None
 
 
+def _row_type(largest: int) -> type[np.int16] | type[np.int32]:
+    """The integer type of row counts and indices up to +-``largest``: 16 bits where they fit (half the memory
+    traffic of the scans over every row and beam), else 32."""
+    return np.int16 if largest < 2**15 else np.int32
+
+
 def _runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
     """(rows, beams): where ``mask`` holds over the ``n`` rows from each row on."""
-    c = np.zeros((mask.shape[0] + 1, mask.shape[1]), np.int16 if mask.shape[0] < 2**15 else np.int32)
+    c = np.zeros((mask.shape[0] + 1, mask.shape[1]), _row_type(mask.shape[0]))
     np.cumsum(mask, axis=0, out=c[1:])
     out = np.zeros(mask.shape, bool)
     if n <= mask.shape[0]:
@@ -247,7 +253,7 @@ class ShadowTops:
         starts = dark_n & ~prev
         if not starts.any():
             return np.zeros((0, 3))
-        idx = np.int16 if 2 * n_rows < 2**15 else np.int32  # the row indices below (to 2 n_rows) in 16 bits if they fit
+        idx = _row_type(2 * n_rows)  # the row indices below, -n_rows .. 2 n_rows
         rows_i = rows.astype(idx)[:, None]
         last_echo = np.maximum.accumulate(np.where(echo, rows_i, idx(-n_rows)), axis=0)
         next_back = np.minimum.accumulate(np.where(back, rows_i, idx(2 * n_rows))[::-1], axis=0)[::-1]
