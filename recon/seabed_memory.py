@@ -3,12 +3,12 @@
 Two stores, both world NED m: the **plane samples** (the DVL's bottom points and the sparse sonar seabed
 returns, every :data:`PLANE_FRAME_STEP`-th frame, beams :data:`PLANE_BEAM_SPACING_DEG` apart) behind the tiled planes
 of :mod:`recon.seabed`, and the **texture grid** (:class:`recon.seabed_texture.SeabedCells`: per-cell sums of
-the dense seabed returns, beams :data:`TEXTURE_BEAM_SPACING_DEG` apart in every frame, the DVL points and the
-highlight points) behind :func:`recon.seabed_texture.fit_textured`. :meth:`SeabedMemory.fit` is the model of a
-poll (:class:`recon.reconstructor.Reconstructor`, and :mod:`classify.training.clutter_synth`, which runs recon's seabed
-removal on synthesized patches): tiled planes from the plane samples around the box, and on them the texture
-grid. Memory grows with the samples kept (plane samples are a sparse subset) and with the area surveyed (the
-grid's cells), not with the frames.
+the dense seabed returns, beams :data:`TEXTURE_BEAM_SPACING_DEG` apart in every frame, the DVL points, and the
+highlight points where ``texture.highlights`` says so) behind :func:`recon.seabed_texture.fit_textured`.
+:meth:`SeabedMemory.fit` is the model of a poll (:class:`recon.reconstructor.Reconstructor`, and
+:mod:`classify.training.clutter_synth`, which runs recon's seabed removal on synthesized patches): tiled planes
+from the plane samples around the box, and on them the texture grid. Memory grows with the samples kept (plane
+samples are a sparse subset) and with the area surveyed (the grid's cells), not with the frames.
 """
 
 from __future__ import annotations
@@ -83,8 +83,8 @@ class SeabedMemory:
             self.cells.add(points)
 
     def add_highlights(self, points: ArrayLike) -> None:
-        """The first returns before the onset (crests, and objects, whose cells the fit finds): texture samples too
-        when ``texture.highlights``."""
+        """The first returns before the onset (crests, and objects): texture samples too when ``texture.highlights``
+        (off by default: :class:`recon.seabed_texture.TextureConfig`)."""
         if self.texture_config.highlights:
             self.add_texture(points)
 

@@ -63,7 +63,9 @@ class TextureConfig:
     grow_m: float = 1.0  # m: object cells grow by this much (an object's flanks are lower than its top)
     k_sigma: float = 5.0  # object points: at least k_sigma * the measured seabed noise above the model
     min_sigma_cells: int = 25  # seabed cells (3+ samples) needed to measure the noise; fewer: the floor alone
-    highlights: bool = True  # the highlight points feed the grid too (seabed the onset search put before it)
+    #: the highlight points feed the grid too; off: an object's own returns would lift its cells, and a low object
+    #: on a rough seabed (cells under clip_k sigma over their neighbourhood) would become seabed (RESULTS.md)
+    highlights: bool = False
     max_cells: int = 400_000  # a box larger than this many cells is fitted at a coarser cell
 
 

@@ -73,9 +73,49 @@ def test_too_few_samples_near_the_box() -> None:
 def test_highlights_feed_the_grid_only_when_configured() -> None:
     rng = np.random.default_rng(5)
     crests = _plane(40, rng)
-    on = SeabedMemory(SeabedConfig(), TextureConfig())
+    on = SeabedMemory(SeabedConfig(), TextureConfig(highlights=True))
     on.add_highlights(crests)
     assert len(on.cells) > 0 and on.n_planes == 0  # texture samples, never plane samples
-    off = SeabedMemory(SeabedConfig(), TextureConfig(highlights=False))
+    off = SeabedMemory(SeabedConfig(), TextureConfig())  # the default: the grid from seabed returns alone
     off.add_highlights(crests)
     assert len(off.cells) == 0
+
+
+def _rough_depth(xy: np.ndarray, rms: float, seed: int) -> np.ndarray:
+    """Depth (m) of a level seabed at 20 m with a texture of 8 sinusoids, wavelengths 0.5-8 m, of ``rms`` m."""
+    rng = np.random.default_rng(seed)
+    lam = np.exp(rng.uniform(np.log(0.5), np.log(8.0), 8))
+    ang, ph = rng.uniform(0.0, 2 * np.pi, 8), rng.uniform(0.0, 2 * np.pi, 8)
+    k = 2 * np.pi / lam[:, None] * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    return 20.0 + rms * np.sqrt(2.0 / 8) * np.sin(xy @ k.T + ph).sum(axis=1)
+
+
+def _half_pipe_kept(seed: int, texture: TextureConfig) -> float:
+    """Share of a half pipe's highlight points (0.3 m high, 3 m long, across two 0.5 m cells of a 0.09 m rms seabed
+    of texture ``seed``) that stand above the grid fitted with ``texture``."""
+    from recon.poll_seabed import object_points
+
+    rng = np.random.default_rng(6)
+    xy = rng.uniform(0.0, 30.0, (80_000, 2))
+    hidden = (np.abs(xy[:, 0] - 15.0) < 0.3) & (np.abs(xy[:, 1] - 15.0) < 1.5)  # its footprint
+    dx = rng.uniform(-0.26, 0.26, 60)  # its top, seen where it stands 0.15 m or more
+    top = np.column_stack([15.0 + dx, 15.0 + rng.uniform(-1.4, 1.4, dx.size)])
+    pipe = np.column_stack([top, _rough_depth(top, 0.09, seed) - 0.3 * np.sqrt(1.0 - (dx / 0.3) ** 2)])
+    mem = SeabedMemory(SeabedConfig(), texture)
+    mem.add(np.column_stack([xy[~hidden], _rough_depth(xy[~hidden], 0.09, seed)]))
+    mem.add_highlights(pipe)
+    model = mem.fit(np.array([10.0, 10.0]), np.array([20.0, 20.0]))
+    assert isinstance(model, TexturedSeabed)
+    return float(object_points(pipe, model, SeabedConfig()).mean())
+
+
+def test_a_low_object_on_a_rough_seabed_stays_above_the_grid() -> None:
+    """The lowest object on a rough seabed: its cells stand less than clip_k sigma over their neighbourhood on most
+    textures, so the grid there must come from the seabed returns beside it (the default). Fed its own highlight
+    points, the grid rises under it and most of it falls under the seabed threshold."""
+    seeds = range(7, 11)
+    alone = [_half_pipe_kept(s, TextureConfig()) for s in seeds]
+    fed = [_half_pipe_kept(s, TextureConfig(highlights=True)) for s in seeds]
+    assert min(alone) > 0.7
+    assert all(a >= f for a, f in zip(alone, fed, strict=True))
+    assert np.mean(alone) - np.mean(fed) > 0.2
