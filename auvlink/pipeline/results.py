@@ -19,6 +19,11 @@ from auvlink.pipeline.setup import MissionSetup
 from recon.shape import OrientedBox, oriented_box
 from recon.sonar_geometry import SonarGeometry
 
+#: decimals of a written classifier score: a float32 network's last bits depend on the CPU's SIMD path
+SCORE_DECIMALS = 4
+#: decimals of a written position or distance in metres (0.1 mm, far below any sensor's resolution)
+METRE_DECIMALS = 4
+
 
 @dataclass
 class Detection:
@@ -54,18 +59,18 @@ class Detection:
         """A line of ``detections.jsonl``: ``yaw_deg`` is the heading of the principal horizontal axis
         (deg clockwise from north, [0, 180)), ``length_m`` / ``width_m`` the spans along / across it."""
         box = self.box
-        out = {"id": self.id, "class": self.class_name, "score": round(self.score, 4),
-               "position_ned": [round(v, 4) for v in self.position_ned],
-               "size": [round(v, 4) for v in self.size], "n_points": self.n_points,
-               "yaw_deg": round(box.yaw_deg, 2), "length_m": round(box.length_m, 4),
-               "width_m": round(box.width_m, 4),
+        out = {"id": self.id, "class": self.class_name, "score": round(self.score, SCORE_DECIMALS),
+               "position_ned": [round(v, METRE_DECIMALS) for v in self.position_ned],
+               "size": [round(v, METRE_DECIMALS) for v in self.size], "n_points": self.n_points,
+               "yaw_deg": round(box.yaw_deg, 2), "length_m": round(box.length_m, METRE_DECIMALS),
+               "width_m": round(box.width_m, METRE_DECIMALS),
                "t_first": self.t_first, "t_last": self.t_last, "cloud": cloud, "frame": self.frame,
                "passes": [list(p) for p in self.passes],
-               "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, 4),
+               "seabed_depth": None if self.seabed_depth is None else round(self.seabed_depth, METRE_DECIMALS),
                "shadow_height_m": None if self.shadow_height is None else round(self.shadow_height, 3)}
         if self.latitude is not None and self.longitude is not None:
             out["lat"], out["lon"] = round(self.latitude, 9), round(self.longitude, 9)
-            out["drift_correction_ne"] = [round(v, 4) for v in self.drift_correction_ne]
+            out["drift_correction_ne"] = [round(v, METRE_DECIMALS) for v in self.drift_correction_ne]
         return out
 
 

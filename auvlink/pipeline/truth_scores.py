@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from auvlink.pipeline.results import MissionResult
+from auvlink.pipeline.results import METRE_DECIMALS, SCORE_DECIMALS, MissionResult
 
 
 def match(det_xy: np.ndarray, truth_xy: np.ndarray, radius: float) -> list[tuple[int, int, float]]:
@@ -70,8 +70,10 @@ def score_detections(result: MissionResult, radius: float = 1.0) -> dict[str, An
     pairs = match(det_xy, truth_xy, radius)
     correct = sum(1 for i, j, _ in pairs if dets[i].class_name == truth[j].class_name)
     n_det, n_truth = len(dets), len(truth)
+    # scores and distances as detections.jsonl writes them
     rows = [{"truth_class": truth[j].class_name, "detected_class": dets[i].class_name,
-             "score": dets[i].score, "distance_m": dist, "detection_id": dets[i].id}
+             "score": round(float(dets[i].score), SCORE_DECIMALS), "distance_m": round(float(dist), METRE_DECIMALS),
+             "detection_id": dets[i].id}
             for i, j, dist in pairs]
     missed = [truth[j].class_name for j in range(n_truth) if j not in {p[1] for p in pairs}]
     return {
@@ -84,7 +86,7 @@ def score_detections(result: MissionResult, radius: float = 1.0) -> dict[str, An
         "detection_recall": len(pairs) / n_truth if n_truth else 0.0,
         "classification_precision": correct / n_det if n_det else 0.0,
         "classification_recall": correct / n_truth if n_truth else 0.0,
-        "centroid_error_mean_m": float(np.mean([p[2] for p in pairs])) if pairs else None,
+        "centroid_error_mean_m": round(float(np.mean([p[2] for p in pairs])), METRE_DECIMALS) if pairs else None,
         "matches": rows,
         "missed": missed,
         "false_detections": [dets[i].id for i in range(n_det) if i not in {p[0] for p in pairs}],
