@@ -3,6 +3,9 @@ simulator and ``LiveRun`` on threads that are always stopped and joined."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -77,6 +80,36 @@ def start(pool: list[tuple[threading.Thread, threading.Event]], target: Any, sto
     pool.append((t, stop))
     t.start()
     return t, out, errors
+
+
+@contextmanager
+def sim_process(cfg: Path, scene_text: str = SCENE, speed: float = 1.0) -> Iterator[subprocess.Popen[str]]:
+    """``auvlink sim --live`` serving ``cfg``'s ports in its own process, as a vehicle's devices are (a simulator
+    on a thread of the process under test would share its interpreter lock and fall behind its schedule);
+    yielded once its ports are open, killed on the way out if it is still running. Its stdout is the CLI's
+    (the port list, then the end summary: ``sim_summary``)."""
+    scene = cfg.parent / "scene.toml"
+    scene.write_text(scene_text)
+    proc = subprocess.Popen([sys.executable, "-m", "auvlink", "sim", "--scene", str(scene), "--live", str(cfg),
+                             "--speed", str(speed)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"}, cwd=ROOT)
+    try:
+        assert proc.stdout is not None
+        header = proc.stdout.readline()  # printed once every port is open
+        assert "live at" in header, (header, proc.stderr.read() if proc.stderr else "")
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.communicate()
+
+
+def sim_summary(proc: subprocess.Popen[str], timeout: float) -> str:
+    """The simulator's end summary (its stdout from the port list on) once it has finished the survey;
+    asserts it ended cleanly within ``timeout`` s."""
+    out, err = proc.communicate(timeout=timeout)
+    assert proc.returncode == 0, err
+    return out
 
 
 def simulate(cfg: Path, stop: threading.Event, speed: float = 1.0, **kw: Any) -> Any:

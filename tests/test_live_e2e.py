@@ -10,7 +10,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from live_helpers import SCENE, TRUTH_NE, classes_against_truth, simulate, start, threads, vehicle_config
+from live_helpers import (
+    SCENE,
+    TRUTH_NE,
+    classes_against_truth,
+    sim_process,
+    sim_summary,
+    start,
+    threads,
+    vehicle_config,
+)
 
 from auvlink.pipeline.live import LiveRun
 from auvlink.pipeline.process import run_log
@@ -29,10 +38,8 @@ def live_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, MissionRes
         live = LiveRun(cfg, out, stop=stop_live, ready=ready, backoff_max=0.2)
         lt, lres, lerr = start(pool, live.run, stop_live, "live")
         assert ready.wait(30.0), lerr
-        stop_sim = threading.Event()
-        st, sres, serr = start(pool, lambda: simulate(cfg, stop_sim), stop_sim, "sim")
-        st.join(40.0)
-        assert not serr and sres, serr
+        with sim_process(cfg) as sim:  # the vehicle's devices: another process, as on a vehicle
+            sim_summary(sim, 40.0)
         stop_live.set()
         lt.join(30.0)
         assert not lerr and lres, lerr

@@ -12,12 +12,9 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 import pytest
-from live_helpers import SCENE, TRUTH_NE, start, threads, vehicle_config
+from live_helpers import SCENE, TRUTH_NE, sim_process, sim_summary, start, threads, vehicle_config
 
-from auvlink.config import load_config
 from auvlink.pipeline.live import LiveRun
-from auvlink.sim.device_server import serve
-from auvlink.sim.scene import loads_scene
 
 pytestmark = [pytest.mark.live, pytest.mark.slow]
 
@@ -48,19 +45,14 @@ def test_live_pair_within_1_m_however_late_the_ports_open(tmp_path: Path) -> Non
     cfg = vehicle_config(tmp_path)
     out = tmp_path / "out"
     streamed: list[dict] = []
-    with threads() as pool:
-        stop_sim, sim_ready = threading.Event(), threading.Event()
-        st, sres, serr = start(pool, lambda: serve(loads_scene(GNSS_SCENE), load_config(cfg), stop=stop_sim,
-                                                   ready=sim_ready, speed=SPEED), stop_sim, "sim")
-        assert sim_ready.wait(30.0), serr
+    with threads() as pool, sim_process(cfg, GNSS_SCENE, SPEED) as sim:
         time.sleep(LATE_S)  # the live run opens its ports late: dead reckoning starts 6 s into the mission
         stop_live, ready = threading.Event(), threading.Event()
         live = LiveRun(cfg, out, stop=stop_live, ready=ready, backoff_max=0.2,
                        on_detection=lambda d: streamed.append(d.to_json("")))
         lt, lres, lerr = start(pool, live.run, stop_live, "live")
         assert ready.wait(30.0), lerr
-        st.join(90.0)
-        assert not serr and sres, serr
+        sim_summary(sim, 90.0)
         stop_live.set()
         lt.join(30.0)
         assert not lerr and lres, lerr

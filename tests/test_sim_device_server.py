@@ -105,3 +105,15 @@ def test_cli_live_stops_cleanly_on_sigterm(tmp_path: Path) -> None:
     assert proc.returncode == 0, err
     assert "stopped after" in out
     assert not any((tmp_path / "ports").iterdir())
+
+
+@pytest.mark.slow
+def test_a_simulator_behind_its_schedule_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from auvlink.cli import main
+
+    # 3 s of mission at 100x real time: 30 ms for 30 sonar frames, which take longer than that to render
+    assert main(["sim", "--live", str(_config(tmp_path)), "--speed", "100", "--duration", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "behind real time:" in out and "frames late, by up to" in out, out
+    late = int(out.split("behind real time:")[1].split()[0])
+    assert late > 0

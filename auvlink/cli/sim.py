@@ -77,6 +77,9 @@ def _live(args: argparse.Namespace) -> int:
             signal.signal(sig, handler)
     if not args.quiet:
         print(f"auvlink sim: stopped after {result.seconds:.1f} s")
+        if result.late_frames:
+            print(f"  behind real time: {result.late_frames} frames late, by up to {result.behind_s:.2f} s "
+                  "(a machine too busy for this speed: readers see these frames late)")
         for p in result.ports:
             print(f"  {p.device:<10} {p.frames:>8} frames {p.bytes:>11} bytes {p.dropped:>6} dropped")
     return 0

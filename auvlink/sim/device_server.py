@@ -53,7 +53,10 @@ from auvlink.transports.tcp import TcpServerTransport, parse_address
 from auvlink.virtual_pty import PtyPair
 from auvlink.virtual_slcan import SlcanAdapter
 
+#: s of mission rendered at a time, ahead of the schedule (a few blocks are kept ready)
 BLOCK_S = 1.0
+#: s: a frame sent later than its schedule by more than this counts as late (half a 10 Hz sonar's ping interval)
+LATE_S = 0.05
 
 
 @dataclass
@@ -153,8 +156,15 @@ class PortHook(Protocol):
 
 @dataclass
 class LiveResult:
+    """What a live run served: its wall-clock ``seconds``, the ports with their counters, and how well it kept
+    its schedule: ``late_frames`` sent more than :data:`LATE_S` after their time, ``behind_s`` the most any frame
+    was (s). A simulator behind its schedule stamps its frames late on the receiver's clock, except where a frame
+    carries the sensor's own time (a sonar's), so a reader then sees its navigation late against its sonar."""
+
     seconds: float
     ports: list[Port] = field(default_factory=list)
+    late_frames: int = 0
+    behind_s: float = 0.0
 
 
 def _serial_path(url: str) -> str:
@@ -209,6 +219,7 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
     thread = threading.Thread(target=_producer, args=(run, blocks, stop, halt, errors, "sonar" in devices),
                               name="auvlink-sim-producer", daemon=True)
     t_start = time.monotonic()
+    late, behind = 0, 0.0  # frames sent late, and the most behind (s)
     try:
         for role, dev in devices.items():
             ports[role] = Port.serve(role, dev)
@@ -236,6 +247,8 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
                 delay = t0 + (t_ns - start_ns) * 1e-9 / speed - time.monotonic()
                 if delay > 0 and stop.wait(delay):
                     break
+                if delay < -LATE_S:
+                    late, behind = late + 1, max(behind, -delay)
                 if role not in ports:
                     continue
                 if hook is None:
@@ -252,4 +265,4 @@ def serve(scene: Scene, config: VehicleConfig, *, speed: float = 1.0, duration: 
             thread.join(timeout=5.0)
         for port in ports.values():
             port.close()
-    return LiveResult(time.monotonic() - t_start, list(ports.values()))
+    return LiveResult(time.monotonic() - t_start, list(ports.values()), late, behind)
