@@ -20,7 +20,8 @@ from auvlink.sim.device_server import serve
 from auvlink.sim.scene import loads_scene
 from auvlink.virtual import free_tcp_port
 
-ROOT = Path(__file__).resolve().parents[1]
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
 
 # one 26 m line at 2 m/s (13 s), two objects on it
 TRUTH_NE = ((10.0, 0.3), (19.0, -0.3))
@@ -83,16 +84,23 @@ def start(pool: list[tuple[threading.Thread, threading.Event]], target: Any, sto
 
 
 @contextmanager
-def sim_process(cfg: Path, scene_text: str = SCENE, speed: float = 1.0) -> Iterator[subprocess.Popen[str]]:
+def sim_process(cfg: Path, scene_text: str = SCENE, speed: float = 1.0,
+                hook: str | None = None) -> Iterator[subprocess.Popen[str]]:
     """``auvlink sim --live`` serving ``cfg``'s ports in its own process, as a vehicle's devices are (a simulator
     on a thread of the process under test would share its interpreter lock and fall behind its schedule);
     yielded once its ports are open, killed on the way out if it is still running. Its stdout is the CLI's
-    (the port list, then the end summary: ``sim_summary``)."""
+    (the port list, then the end summary: ``sim_summary``). With ``hook`` (``MODULE:ATTRIBUTE``, a
+    ``PortHook`` of a module here, e.g. a fault injector) the same through ``tests/sim_serve.py``."""
     scene = cfg.parent / "scene.toml"
     scene.write_text(scene_text)
-    proc = subprocess.Popen([sys.executable, "-m", "auvlink", "sim", "--scene", str(scene), "--live", str(cfg),
-                             "--speed", str(speed)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"}, cwd=ROOT)
+    if hook is None:
+        cmd = ["-m", "auvlink", "sim", "--scene", str(scene), "--live", str(cfg), "--speed", str(speed)]
+    else:
+        cmd = [str(HERE / "sim_serve.py"), str(cfg), str(scene), str(speed), hook]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1",
+           "PYTHONPATH": os.pathsep.join(filter(None, [str(HERE), os.environ.get("PYTHONPATH")]))}
+    proc = subprocess.Popen([sys.executable, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, cwd=ROOT)
     try:
         assert proc.stdout is not None
         header = proc.stdout.readline()  # printed once every port is open
