@@ -229,6 +229,9 @@ def simulate_to_log(scene: Scene, out_path: str | Path, seed: int | None = None,
                 log(device, formats[device], t_ns, raw, t_sensor)
                 sonar += device == "sonar"
             bar.update(sonar)
+        if pool is not None:
+            pool.close()  # every block is in: the workers end on their own (the context's exit would terminate them)
+            pool.join()
         while j < len(truth_ns):
             log.add_json(POSE_TOPIC, POSE_SCHEMA_NAME, POSE_SCHEMA, truth_ns[j],
                          pose_message(truth_ns[j], positions[j], quats[j]))
