@@ -83,7 +83,7 @@ def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]
     n = SURVEYS[mode]
     folder = out_dir / "survey-eval"
     workers = min(2, os.cpu_count() or 1)
-    result = run_surveys(n, SEED, folder, workers=workers, progress=True, small=mode == "smoke")
+    result = run_surveys(n, SEED, folder, workers=workers, progress=True, small=mode == "smoke", acoustics="ideal")
     png = plot(result, folder / "surveys.png")
     print(text_table(result))
     o = result["overall"]

@@ -107,7 +107,8 @@ def test_two_small_surveys_end_to_end(tmp_path: Path) -> None:
     from auvlink.evaluation.surveys import summarize
     from auvlink.evaluation.tables import class_table, interval_line, text_table
 
-    assert main(["eval", "--surveys", "2", "--seed", "5", "--out", str(tmp_path), "--workers", "2", "--small"]) == 0
+    assert main(["eval", "--surveys", "2", "--seed", "5", "--out", str(tmp_path), "--workers", "2", "--small",
+                 "--acoustics", "ideal"]) == 0
     data = json.loads((tmp_path / "surveys.json").read_text())
     res = summarize(data["surveys"])
     assert data["seed"] == 5 and len(data["surveys"]) == 2

@@ -72,10 +72,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="--surveys: print the pooled figures as JSON")
     p.add_argument("--small", action="store_true", help="--surveys: 2 lines and 2 objects each (CI smoke)")
     p.add_argument("--keep-logs", action="store_true", help="--surveys: keep each survey's mission.mcap")
-    p.add_argument("--acoustics", choices=SPACES, default="ideal", metavar="SPACE",
-                   help="--surveys: acoustic conditions per survey: random (the whole acoustic space over each "
-                        "survey's sonar model's profile), ideal (default for now, comparable with earlier figures; "
-                        f"random once recon is ready) or a fixed sonar profile ({', '.join(SPACES[2:])}: with its own "
+    p.add_argument("--acoustics", choices=SPACES, default="random", metavar="SPACE",
+                   help="--surveys: acoustic conditions per survey: random (default: the whole acoustic space over "
+                        "each survey's sonar model's profile), ideal (the idealized model: hard beam edge, no "
+                        f"sidelobes, fixed gain) or a fixed sonar profile ({', '.join(SPACES[2:])}: with its own "
                         "--sonar model only)")
     p.add_argument("--sonar", choices=(*SIMULATED_MODELS, "random"), default="didson",
                    help="--surveys: the sonar model flown (random: one per survey; default didson)")

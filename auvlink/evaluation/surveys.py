@@ -118,7 +118,7 @@ def _run(job: SurveyJob) -> dict[str, Any]:
 
 def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path | None = None,
                 keep_logs: bool = False, progress: bool = True, small: bool = False,
-                clutter_sweep: bool = False, acoustics: str = "ideal", sonar: str = "didson") -> dict[str, Any]:
+                clutter_sweep: bool = False, acoustics: str = "random", sonar: str = "didson") -> dict[str, Any]:
     """Run ``n`` surveys of the draw ``seed`` into ``out``; returns (and writes) ``surveys.json``'s content.
     ``small``: the CI smoke draw (:func:`auvlink.evaluation.draw.draw_survey`); ``clutter_sweep``: see the module
     docstring; ``acoustics``: the acoustic space (:func:`auvlink.evaluation.acoustic_draw.draw_acoustics`);
