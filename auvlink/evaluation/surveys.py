@@ -163,7 +163,7 @@ def run_surveys(n: int, seed: int, out: Path, *, workers: int = 1, model: Path |
                    "small": small,
                    "command": f"auvlink eval --surveys {n} --seed {seed} --out {out}" + (" (small)" if small else "")
                    + (" --clutter-sweep" if clutter_sweep else "")
-                   + (f" --acoustics {acoustics}" if acoustics != "ideal" else "")
+                   + f" --acoustics {acoustics}"  # explicit: the command repeats the run whatever the defaults
                    + (f" --sonar {sonar}" if sonar != "didson" else "")})
     out.mkdir(parents=True, exist_ok=True)
     (out / "surveys.json").write_text(json.dumps(to_jsonable(result), indent=1, allow_nan=True) + "\n")
