@@ -28,6 +28,7 @@ from auvlink.sim.scene import (
     load_default_scene,
     loads_scene,
     parse_scene,
+    with_acoustics,
     with_sonar_model,
 )
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng
@@ -254,7 +255,7 @@ def test_eval_refuses_a_mismatched_profile_before_any_work(tmp_path: Path, capsy
 # --- demo --sonar ---------------------------------------------------------------------------------------------------
 def test_demo_sonar_flies_the_models_profile_when_the_scene_is_realistic() -> None:
     shipped = load_default_scene()
-    assert shipped.acoustics is None  # the demo's default acoustics: the shipped scene's (ideal), kept
+    assert shipped.acoustics is None  # the shipped scene as written: no table (the idealized model)
     assert with_sonar_model(shipped, "oculus-m750d").acoustics is None
     realistic = replace(shipped, acoustics=AcousticsTable(profile="didson", sidelobe_db=-22.0))
     for model in SIMULATED_MODELS:
@@ -263,3 +264,17 @@ def test_demo_sonar_flies_the_models_profile_when_the_scene_is_realistic() -> No
         assert SonarRenderer(replace(flown, objects=())).imager is not None
     ideal = replace(shipped, acoustics=AcousticsTable(profile="ideal"))
     assert with_sonar_model(ideal, "oculus-m1200d").acoustics == AcousticsTable(profile="ideal")
+
+
+def test_the_demo_renders_the_flown_sonars_own_images_unless_told() -> None:
+    shipped = load_default_scene()
+    assert with_acoustics(shipped).acoustics == AcousticsTable(profile="didson")  # the shipped scene's DIDSON
+    for model in SIMULATED_MODELS:  # auvlink demo --sonar MODEL: that model's own profile
+        assert with_acoustics(with_sonar_model(shipped, model)).acoustics == AcousticsTable(profile=profile_of(model))
+    assert with_acoustics(shipped, "ideal").acoustics == AcousticsTable(profile="ideal")  # --acoustics ideal
+    own = replace(shipped, acoustics=AcousticsTable(profile="aris1800", sidelobe_db=-22.0))
+    assert with_acoustics(own) is own  # a scene's own table is what it renders
+    assert with_acoustics(own, "didson").acoustics == AcousticsTable(profile="didson", sidelobe_db=-22.0)
+    assert with_acoustics(own, "ideal").acoustics == AcousticsTable(profile="ideal")  # (ideal takes no overrides)
+    with pytest.raises(ValueError, match="acoustic profile"):
+        with_acoustics(shipped, "sidescan")

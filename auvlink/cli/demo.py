@@ -1,5 +1,9 @@
 """``auvlink demo``: the shipped scene -> simulated mission log -> replay -> report. No arguments needed.
 
+The images are those of the flown sonar (DIDSON by default, ``--sonar``): rendered under that model's acoustic
+profile (beam pattern, sidelobes, pulse, gain, TVG) unless the scene's ``[acoustics]`` table or ``--acoustics``
+names another (``ideal``: the idealized model).
+
 The output folder (default ``demo-out``) must be new or empty unless ``--force``, never holds the
 ``--scene`` at a name the demo writes (exit 2) and is locked for the run; the log and the replay
 outputs are each written under a temporary name and renamed when whole. ``--json``: one JSON
@@ -16,7 +20,8 @@ from pathlib import Path
 from auvlink.atomic import check_output_file
 from auvlink.jsonutil import dumps
 from auvlink.pipeline.run_guard import output_dir_lock, refuse_input_overwrite
-from auvlink.sim.scene import SIMULATED_MODELS, load_default_scene, load_scene, with_sonar_model
+from auvlink.sim.acoustics import PROFILES
+from auvlink.sim.scene import SIMULATED_MODELS, load_default_scene, load_scene, with_acoustics, with_sonar_model
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -25,6 +30,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=None, help="override the scene's seed")
     p.add_argument("--sonar", choices=SIMULATED_MODELS, default=None,
                    help="fly this sonar model (high-frequency mode; default: the scene's, the shipped scene's DIDSON)")
+    p.add_argument("--acoustics", choices=PROFILES, default=None, metavar="PROFILE",
+                   help="the acoustic profile the images are rendered under: ideal (the idealized model) or "
+                        f"{', '.join(PROFILES[1:])} (default: the scene's [acoustics] table; the shipped scene, or "
+                        "a scene without one, the flown sonar model's own: the images that sonar makes)")
     p.add_argument("--force", action="store_true", help="write into a non-empty output folder (replacing its files)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (counts, detections, outputs, timings) on stdout, nothing else")
@@ -51,6 +60,7 @@ def _run(args: argparse.Namespace, log: Path) -> int:
     scene = load_scene(args.scene) if args.scene else load_default_scene()
     if args.sonar is not None:
         scene = with_sonar_model(scene, args.sonar)
+    scene = with_acoustics(scene, args.acoustics)
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     print(f"[1/2] simulating the mission -> {log}", file=say)

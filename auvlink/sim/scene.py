@@ -230,6 +230,21 @@ def with_sonar_model(scene: Scene, model: SonarModelName) -> Scene:
     return replace(scene, sonar=sonar, acoustics=acoustics)
 
 
+def with_acoustics(scene: Scene, profile: str | None = None) -> Scene:
+    """The scene rendered under an acoustic ``profile`` (a name of :data:`auvlink.sim.acoustics.PROFILES`; a
+    realistic one keeps the scene's overrides); with ``None``, the scene's own ``[acoustics]`` table, or without
+    one the image its sonar model makes (that model's data-sheet profile, not the idealized model)."""
+    table = scene.acoustics
+    if profile is None:
+        if table is not None:
+            return scene
+        profile = scene.sonar.description.acoustic_profile
+    name = profile_named(profile)
+    if name == "ideal" or table is None or table.profile == "ideal":
+        return replace(scene, acoustics=AcousticsTable(profile=name))
+    return replace(scene, acoustics=replace(table, profile=name))
+
+
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene TOML file."""
     doc, _ = read_toml(path, "scene")
