@@ -161,13 +161,14 @@ class SonarRenderer:
 
     def _cast(self, scene: o3d.t.geometry.RaycastingScene, origin: F64, d: F64, sel: I64, rng_: F64,
               inten: F64, kind: NDArray[np.int8], obj_idx: NDArray[np.int32], only: int = -1) -> None:
-        """Cast rays ``sel``; where a hit is nearer than the current return, it replaces it."""
+        """Cast rays ``sel``; where a hit is nearer than the current return and within the range window, it
+        replaces it (an object past the window's end is left out as the seabed is, whatever the culling)."""
         rays = np.empty((sel.size, 6), np.float32)
         rays[:, :3] = origin
         rays[:, 3:] = d[:, sel].T
         ans = scene.cast_rays(o3d.core.Tensor.from_numpy(rays))
         t = ans["t_hit"].numpy().astype(np.float64)
-        better = np.flatnonzero(t < rng_[sel])
+        better = np.flatnonzero((t < rng_[sel]) & (t <= self.geometry.window_end))
         if not better.size:
             return
         idx = sel[better]
