@@ -223,11 +223,10 @@ def with_sonar_model(scene: Scene, model: SonarModelName) -> Scene:
         raise ConfigError("sonar.model", f"the simulator does not send {model} frames", f"use one of "
                           f"{', '.join(SIMULATED_MODELS)}")
     d = describe(model)
-    sonar = replace(scene.sonar, model=model, spread_deg=d.vertical_aperture_deg)
-    acoustics = scene.acoustics
-    if acoustics is not None and acoustics.profile != "ideal":
-        acoustics = replace(acoustics, profile=profile_named(d.acoustic_profile))
-    return replace(scene, sonar=sonar, acoustics=acoustics)
+    flown = replace(scene, sonar=replace(scene.sonar, model=model, spread_deg=d.vertical_aperture_deg))
+    if scene.acoustics is None or scene.acoustics.profile == "ideal":
+        return flown
+    return with_acoustics(flown, d.acoustic_profile)  # the model's own profile, the table's overrides kept
 
 
 def with_acoustics(scene: Scene, profile: str | None = None) -> Scene:
