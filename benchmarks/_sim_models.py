@@ -11,7 +11,7 @@ from typing import Any
 from _sim_frames import fps, fps_cpu, frames_of
 
 from auvlink.sim.acoustics import AcousticsTable
-from auvlink.sim.scene import SIMULATED_MODELS, Scene, with_sonar_model
+from auvlink.sim.scene import SIMULATED_MODELS, Scene, with_acoustics, with_sonar_model
 from auvlink.sim.sonar_render import SonarRenderer
 
 
@@ -22,7 +22,7 @@ def model_rows(scene: Scene, n: int, stride: int, repeat: int) -> list[dict[str,
         flown = with_sonar_model(replace(scene, acoustics=AcousticsTable(profile="didson")), model)
         frames = frames_of(flown, n, stride)
         for acoustics in ("ideal", "realistic"):
-            rd = SonarRenderer(flown if acoustics == "realistic" else replace(flown, acoustics=None))
+            rd = SonarRenderer(flown if acoustics == "realistic" else with_acoustics(flown, "ideal"))
             g = rd.geometry
             row: dict[str, Any] = {"model": model, "image": f"{g.n_beams}x{g.n_bins}", "acoustics": acoustics}
             for view, key in (("objects in view", "objects"), ("seabed only", "seabed")):

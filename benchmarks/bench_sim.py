@@ -2,6 +2,8 @@
 
 Run: ``auvlink bench sim --out DIR`` (or ``python benchmarks/bench_sim.py --out DIR [--full]``).
 
+- Every study but ``profiles`` and ``models`` renders the default scene under the idealized model
+  (``profile = "ideal"``), whose parameter K (rays per beam) the sweeps vary.
 - Frames of the default scene's survey at 10 fps, split into frames with an object in view and
   frames that see only the (sloped, 2 cm rough) seabed; frames/s for each culling mode (``rays``:
   one raycasting scene, only rays that can reach an object's bounding sphere are cast; ``objects``:
@@ -44,9 +46,14 @@ from _sim_models import model_rows
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.acoustics import PROFILES, AcousticsTable
-from auvlink.sim.scene import Scene, load_default_scene
+from auvlink.sim.scene import Scene, load_default_scene, with_acoustics
 from auvlink.sim.sonar_geometry import RayFan
 from auvlink.sim.sonar_render import OBJECT, SonarRenderer
+
+
+def ideal_default_scene() -> Scene:
+    """The default scene under the idealized model: K rays per beam, the parameter the studies vary, is its."""
+    return with_acoustics(load_default_scene(), "ideal")
 
 
 def _stage_us(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation]) -> tuple[float, float]:
@@ -64,7 +71,7 @@ def _stage_us(rd: SonarRenderer, frames: tuple[np.ndarray, Rotation]) -> tuple[f
 
 
 def _onset_error_bins(k: int) -> float:
-    scene = load_default_scene()
+    scene = ideal_default_scene()
     scene = replace(scene, objects=(), seabed=replace(scene.seabed, slope_deg=0.0, roughness=0.0),
                     sonar=replace(scene.sonar, lever_arm=(0.0, 0.0, 0.0)))
     rd = SonarRenderer(scene, rays_per_beam=k, speckle=False)
@@ -145,7 +152,7 @@ def _profiles(scene: Scene, frames: dict[str, tuple[np.ndarray, Rotation]], repe
     """Frames/s (wall and CPU) of every acoustic profile on the same frames, ``ideal`` first."""
     rows = []
     for name in PROFILES:
-        rd = SonarRenderer(replace(scene, acoustics=None if name == "ideal" else AcousticsTable(profile=name)))
+        rd = SonarRenderer(replace(scene, acoustics=AcousticsTable(profile=name)))
         rows.append({"profile": name, "rays": rd.geometry.n_rays,
                      "fps_objects": fps(rd, frames["objects in view"], repeat),
                      "fps_seabed": fps(rd, frames["seabed only"], repeat),
@@ -182,7 +189,7 @@ def _contract(rows: list[dict[str, Any]], sweep: list[dict[str, Any]], bins: lis
 def run(quick: bool = True, out_dir: Path = Path("bench-out")) -> dict[str, Any]:
     t0 = time.perf_counter()
     load_before = os.getloadavg()
-    scene = load_default_scene()
+    scene = ideal_default_scene()
     n, repeat, stride = (150, 3, 1) if quick else (600, 5, 1)
     if smoke():
         n, repeat, stride = 8, 1, 8

@@ -39,7 +39,7 @@ def panels() -> list[tuple[str, np.ndarray]]:
     scene = load_default_scene()
     pose = LawnmowerTrajectory.from_scene(scene).true_pose(np.array([FRAME_T]))
     position, r_wb = pose.position[0], pose.rotation().as_matrix()[0]
-    tables = [(name, None if name == "ideal" else AcousticsTable(profile=name)) for name in PROFILES]
+    tables = [(name, AcousticsTable(profile=name)) for name in PROFILES]
     out = []
     for title, table in [*tables, ("harsh draw", HARSH)]:
         rd = SonarRenderer(replace(scene, acoustics=table))

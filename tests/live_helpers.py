@@ -23,8 +23,9 @@ from auvlink.virtual import free_tcp_port
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 
-# one 26 m line at 2 m/s (13 s), two objects on it
-TRUTH_NE = ((10.0, 0.3), (19.0, -0.3))
+# one 26 m line at 2 m/s (13 s), two objects on it; the pipe comes into view 3 s into the line, once recon has
+# measured the beam's lower edge from the seabed (recon.beam_edge: an object seen only before that leaves no points)
+TRUTH_NE = ((16.0, 0.3), (25.0, -0.3))
 SCENE = scene_toml(seed=5, objects=[obj("pipe", *TRUTH_NE[0], 60.0), obj("reef_c", *TRUTH_NE[1], 0.0)],
                    survey={"line_length": 26.0, "speed": 2.0})
 

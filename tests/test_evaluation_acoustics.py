@@ -82,9 +82,12 @@ def test_the_survey_draw_of_a_seed_is_the_one_of_the_code_before_acoustics(space
         assert (d.seed, d.depth, d.tilt_deg, d.window_length, d.objects[0]) == values
 
 
-def test_ideal_writes_no_table_and_a_profile_only_its_name() -> None:
-    assert draw_acoustics("ideal", 1, 0, 8.0).table_toml() == ""
-    assert draw_acoustics("ideal", 1, 0, 8.0).factors() == {}
+def test_ideal_and_a_profile_write_only_their_name() -> None:
+    ideal = draw_acoustics("ideal", 1, 0, 8.0)
+    assert tomllib.loads(ideal.table_toml()) == {"acoustics": {"profile": "ideal"}}  # a scene without it is realistic
+    assert ideal.factors() == {}
+    scene = loads_scene(draw_survey(1, 0, small=True).scene_toml() + "\n" + ideal.table_toml())
+    assert scene.acoustics is not None and resolve(scene.acoustics) is None  # the idealized model
     d = draw_acoustics("aris1800", 1, 0, 8.0, "aris1800")
     assert tomllib.loads(d.table_toml()) == {"acoustics": {"profile": "aris1800"}}
     assert d.factors() == {"profile": "aris1800"}

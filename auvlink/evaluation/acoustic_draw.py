@@ -1,7 +1,7 @@
 """Acoustic conditions drawn with each random survey (``auvlink eval --surveys N --acoustics SPACE``).
 
-``SPACE`` is ``ideal`` (the idealized model, no ``[acoustics]`` table: the scene of
-:mod:`auvlink.evaluation.draw` unchanged), a sonar profile name (``didson``, ``aris1800``, ``aris3000``,
+``SPACE`` is ``ideal`` (the idealized model: the scene of :mod:`auvlink.evaluation.draw` with
+``[acoustics] profile = "ideal"``), a sonar profile name (``didson``, ``aris1800``, ``aris3000``,
 ``oculus-m750d``, ``oculus-m1200d``: that profile's values as they are, for surveys flown with its own
 sonar model only: :func:`check_pairing` refuses another), or ``random``: the realistic profile of the
 survey's sonar model (:func:`profile_of`) with every value below drawn uniformly in its range and
@@ -93,9 +93,8 @@ class AcousticDraw:
         return {k: v for k, v in asdict(self).items() if v is not None and k not in ("profile", "pulse_bins")}
 
     def table_toml(self) -> str:
-        """The scene's ``[acoustics]`` table; empty for the ``ideal`` profile (the table absent)."""
-        if self.profile == "ideal":
-            return ""
+        """The scene's ``[acoustics]`` table: the profile, named for every draw (``ideal`` too: a scene without the
+        table renders under its sonar model's realistic profile), and the overrides."""
         rows = ["[acoustics]", f'profile = "{self.profile}"']
         rows += [f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v!r}" for k, v in self.overrides().items()]
         return "\n".join(rows) + "\n"
@@ -107,7 +106,7 @@ class AcousticDraw:
         return {k: v for k, v in asdict(self).items() if k in ACOUSTIC_BINS and v is not None}
 
 
-#: the idealized model: no ``[acoustics]`` table
+#: the idealized model: ``[acoustics] profile = "ideal"``, no overrides
 IDEAL = AcousticDraw(profile="ideal")
 
 

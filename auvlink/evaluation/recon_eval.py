@@ -87,7 +87,7 @@ def reconstruct_pass(class_name: str, heading_deg: float, tilt_deg: float, altit
                   objects=(SceneObject(class_name, 0.0, 0.0, heading_deg),),
                   survey=Survey(line_length=s.run_in + s.run_out, line_spacing=3.5, lines=1, altitude=altitude,
                                 speed=s.speed), sonar=sonar,
-                  acoustics=None if s.acoustics == "ideal" else AcousticsTable(profile=s.acoustics))
+                  acoustics=AcousticsTable(profile=s.acoustics))
     renderer = SonarRenderer(scene)
     n = int((s.run_in + s.run_out) / s.speed * s.fps) + 1
     t = np.arange(n) / s.fps

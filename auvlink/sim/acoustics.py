@@ -1,13 +1,14 @@
 """The scene's ``[acoustics]`` table: which acoustic model renders the sonar image, and its parameters.
 
-``profile`` names a parameter set; every other key overrides one value of it. ``ideal`` (the default,
-also when the table is absent) is the idealized model of :mod:`auvlink.sim.speckle` (K rays per beam
-with a hard vertical edge, one azimuth per beam, no pulse, fixed gain), byte for byte; it takes no
-overrides. The realistic profiles (``didson``, ``aris1800``, ``aris3000``, ``oculus-m750d``,
-``oculus-m1200d``: each sonar model's own, :attr:`auvlink.sonar.SonarDescription.acoustic_profile`) are
-rendered by :mod:`auvlink.sim.acoustic_image`; a profile's values are those of the frequency mode the scene's
-sonar flies (:data:`MODE_VALUES`: the Oculus' low-frequency mode differs). The physics of each key and its
-unit (docs/ACOUSTICS.md):
+``profile`` names a parameter set; every other key overrides one value of it. The default, when the table
+is absent or names no ``profile``, is the realistic profile of the scene's sonar model
+(:func:`rendered_table`: :attr:`auvlink.sonar.SonarDescription.acoustic_profile`, the DIDSON's when the scene
+names no model). The realistic profiles (``didson``, ``aris1800``, ``aris3000``, ``oculus-m750d``,
+``oculus-m1200d``: each sonar model's own) are rendered by :mod:`auvlink.sim.acoustic_image`; a profile's
+values are those of the frequency mode the scene's sonar flies (:data:`MODE_VALUES`: the Oculus'
+low-frequency mode differs). ``profile = "ideal"`` names the idealized model of :mod:`auvlink.sim.speckle`
+(K rays per beam with a hard vertical edge, one azimuth per beam, no pulse, fixed gain); it takes no
+overrides. The physics of each key and its unit (docs/ACOUSTICS.md):
 
 - vertical beam pattern (two-way power against elevation): ``vertical_pattern`` (``uniform`` hard
   edge, ``gaussian``, ``sinc2`` = the sinc^2 of a uniformly weighted aperture, first sidelobe
@@ -38,14 +39,14 @@ unit (docs/ACOUSTICS.md):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Annotated, Any, Literal
 
 from pydantic import Field
 from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
-from auvlink.sonar import describe
+from auvlink.sonar import Sonar, describe
 from auvlink.validation import CONFIG, Integer, Number
 
 ProfileName = Literal["ideal", "didson", "aris1800", "aris3000", "oculus-m750d", "oculus-m1200d"]
@@ -192,9 +193,11 @@ Db = Annotated[Number, Field(ge=-100.0, le=50.0, description="dB")]
 
 @model(frozen=True, config=CONFIG)
 class AcousticsTable:
-    """``[acoustics]`` as written: a profile and overrides of its values (module docstring: units, physics)."""
+    """``[acoustics]`` as written: a profile (absent: the sonar model's own realistic one) and value overrides."""
 
-    profile: Annotated[ProfileName, Field(description="named parameter set; ideal = the idealized model")] = "ideal"
+    profile: Annotated[ProfileName | None, Field(
+        description="named parameter set; absent: the realistic profile of the scene's sonar model "
+                    "(sonar.model, DIDSON if unset); ideal = the idealized model")] = None
     vertical_pattern: Annotated[PatternShape | None, Field(description="two-way vertical beam pattern shape")] = None
     vertical_width_deg: Annotated[Number | None, Field(gt=0.0, le=60.0, description="-3 dB full width, deg")] = None
     vertical_extent: Annotated[Number | None, Field(ge=1.0, le=4.0, description="integrated, x width")] = None
@@ -227,16 +230,28 @@ def profile_named(name: str) -> ProfileName:
     raise ValueError(f"acoustic profile {name!r}: use one of {', '.join(PROFILES)}")
 
 
-def resolve(table: AcousticsTable | None, frequency_mode: str = "high") -> Acoustics | None:
-    """The realistic model's parameters for a scene's table, its profile in the sonar's ``frequency_mode``
-    (:data:`MODE_VALUES`); ``None`` for the ``ideal`` profile.
+def rendered_table(table: AcousticsTable | None, sonar: Sonar) -> AcousticsTable:
+    """The ``[acoustics]`` table a scene with ``sonar`` is rendered under: ``table`` when it names a profile;
+    without a table, or with one that names no profile, the sonar model's own realistic profile (its data
+    sheet's, :attr:`auvlink.sonar.SonarDescription.acoustic_profile`) with the table's overrides."""
+    if table is not None and table.profile is not None:
+        return table
+    own = profile_named(sonar.description.acoustic_profile)
+    return AcousticsTable(profile=own) if table is None else replace(table, profile=own)
+
+
+def resolve(table: AcousticsTable, frequency_mode: str = "high") -> Acoustics | None:
+    """The realistic model's parameters for a table that names its profile (:func:`rendered_table` gives a
+    scene's), in the sonar's ``frequency_mode`` (:data:`MODE_VALUES`); ``None`` for the ``ideal`` profile.
 
     The rendered vertical width is the profile's (data sheet) unless the table sets one; the scene's
-    ``sonar.spread_deg`` stays what the reconstruction assumes.
+    ``sonar.spread_deg`` stays what the reconstruction assumes. ``ValueError`` for a table without a profile;
+    :class:`~auvlink.errors.ConfigError` naming the key for the ``ideal`` profile with an override.
     """
-    if table is None or table.profile == "ideal":
-        given = [] if table is None else [f.name for f in fields(table) if f.name != "profile"
-                                           and getattr(table, f.name) is not None]
+    if table.profile is None:
+        raise ValueError("the acoustics table names no profile: rendered_table(table, sonar) gives the scene's")
+    if table.profile == "ideal":
+        given = [f.name for f in fields(table) if f.name != "profile" and getattr(table, f.name) is not None]
         if given:
             raise ConfigError(f"acoustics.{given[0]}", "the ideal profile takes no overrides",
                               f"set acoustics.profile to one of {', '.join(PROFILES[1:])} or remove the key")

@@ -19,7 +19,8 @@ Optional keys beyond the architecture's table (all with defaults):
 - ``[sensors]`` and ``[noise]``: the simulator settings (:mod:`auvlink.sim.settings` validates them).
 - ``[gnss]``: the GNSS receiver and the surface phases of the mission (:mod:`auvlink.sim.gnss_config`).
 - ``[acoustics]``: the acoustic model of the sonar image, ``profile`` and overrides
-  (:mod:`auvlink.sim.acoustics`); absent: the ``ideal`` profile.
+  (:mod:`auvlink.sim.acoustics`); absent, or without ``profile``: the realistic profile of the sonar model
+  (:func:`auvlink.sim.acoustics.rendered_table`); ``profile = "ideal"``: the idealized model.
 
 Without ``[site]`` (or with only one of its keys) the scene's datum (:attr:`Scene.datum`) is Jangil Bay,
 Pohang (36.0412 N, 129.3915 E), where the paper's field trial ran.
@@ -38,7 +39,7 @@ from pydantic.dataclasses import dataclass as model
 
 from auvlink.errors import ConfigError
 from auvlink.geodesy import JANGIL_BAY, Datum
-from auvlink.sim.acoustics import AcousticsTable, profile_named, resolve
+from auvlink.sim.acoustics import AcousticsTable, profile_named, rendered_table, resolve
 from auvlink.sim.gnss_config import Gnss, check_gnss
 from auvlink.sonar import MAX_LEVER_M, Sonar, SonarModelName, describe
 from auvlink.validation import CONFIG, Integer, Number, Site, Vec2, Vec3, loads_toml, read_toml, validate
@@ -151,7 +152,9 @@ class SceneFile:
     sensors: dict[str, Any] | None = None
     noise: dict[str, Any] | bool | None = None
     gnss: Gnss | None = None
-    acoustics: AcousticsTable | None = None
+    acoustics: Annotated[AcousticsTable | None, Field(
+        description="the sonar image's acoustic model; absent: the realistic profile of the sonar model "
+                    "(sonar.model, DIDSON if unset); profile = \"ideal\": the idealized model")] = None
 
 
 @dataclass(frozen=True)
@@ -165,7 +168,7 @@ class Scene:
     source: str = ""  # file the scene came from ("" when built in code)
     site: Site | None = None
     gnss: Gnss | None = None  # None: no GNSS receiver, the mission is the survey alone
-    acoustics: AcousticsTable | None = None  # None: the ideal acoustic model (auvlink.sim.acoustics)
+    acoustics: AcousticsTable | None = None  # None: the sonar model's own profile (acoustics.rendered_table)
 
     @property
     def datum(self) -> Datum:
@@ -205,7 +208,7 @@ def parse_scene(doc: Any, source: str = "") -> Scene:
     if f.sonar.model is not None and f.sonar.model not in SIMULATED_MODELS:
         raise ConfigError("sonar.model", f"the simulator does not send {f.sonar.model} frames",
                           f"use {', '.join(SIMULATED_MODELS)}")
-    resolve(f.acoustics)  # the ideal profile with overrides is an error naming the key
+    resolve(rendered_table(f.acoustics, f.sonar))  # the ideal profile with overrides is an error naming the key
     return Scene(seed=f.seed, seabed=f.seabed, objects=tuple(o.scene_object() for o in f.objects),
                  survey=f.survey, sonar=f.sonar, vehicle=f.vehicle, source=source, site=f.site,
                  gnss=check_gnss(f.gnss), acoustics=f.acoustics)
@@ -217,29 +220,29 @@ SIMULATED_MODELS: tuple[SonarModelName, ...] = ("didson", "aris1800", "aris3000"
 
 def with_sonar_model(scene: Scene, model: SonarModelName) -> Scene:
     """The scene flown with another sonar model (high-frequency mode): its vertical spread the model's data-sheet
-    aperture, a realistic ``[acoustics]`` profile the model's own (the table's overrides kept; ``ideal`` or no
-    table stays so), every other setting kept."""
+    aperture, its images under the model's own realistic profile (the table's overrides kept), every other
+    setting kept. A scene without ``[acoustics]``, or whose table names no profile, keeps its table: the renderer
+    takes the flown model's profile itself; ``profile = "ideal"`` stays ideal."""
     if model not in SIMULATED_MODELS:
         raise ConfigError("sonar.model", f"the simulator does not send {model} frames", f"use one of "
                           f"{', '.join(SIMULATED_MODELS)}")
     d = describe(model)
     flown = replace(scene, sonar=replace(scene.sonar, model=model, spread_deg=d.vertical_aperture_deg))
-    if scene.acoustics is None or scene.acoustics.profile == "ideal":
+    if scene.acoustics is None or scene.acoustics.profile in (None, "ideal"):
         return flown
     return with_acoustics(flown, d.acoustic_profile)  # the model's own profile, the table's overrides kept
 
 
 def with_acoustics(scene: Scene, profile: str | None = None) -> Scene:
-    """The scene rendered under an acoustic ``profile`` (a name of :data:`auvlink.sim.acoustics.PROFILES`; a
-    realistic one keeps the scene's overrides); with ``None``, the scene's own ``[acoustics]`` table, or without
-    one the image its sonar model makes (that model's data-sheet profile, not the idealized model)."""
-    table = scene.acoustics
+    """The scene with an ``[acoustics]`` table that names the profile it is rendered under: ``profile`` (a name of
+    :data:`auvlink.sim.acoustics.PROFILES`; a realistic one keeps the scene's overrides, ``ideal`` takes none);
+    with ``None``, the profile the scene renders under as it stands (:func:`auvlink.sim.acoustics.rendered_table`:
+    its table's, else its sonar model's own), the same images."""
+    table = rendered_table(scene.acoustics, scene.sonar)
     if profile is None:
-        if table is not None:
-            return scene
-        profile = scene.sonar.description.acoustic_profile
+        return scene if table == scene.acoustics else replace(scene, acoustics=table)
     name = profile_named(profile)
-    if name == "ideal" or table is None or table.profile == "ideal":
+    if name == "ideal" or table.profile == "ideal":
         return replace(scene, acoustics=AcousticsTable(profile=name))
     return replace(scene, acoustics=replace(table, profile=name))
 

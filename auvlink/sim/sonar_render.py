@@ -16,10 +16,12 @@ Skipping what a frame does not need (``cull``):
 - ``"objects"``: one raycasting scene per object; each in-view object gets only its own rays.
 - ``"none"``: every ray is cast against every object (reference; same image bytes).
 
-Acoustic profile: the scene's ``[acoustics]`` table (:mod:`auvlink.sim.acoustics`). Without it, or
-with ``profile = "ideal"``, the model above. A realistic profile samples ``elevation_samples`` rays
-per beam over its vertical extent (:func:`sampled_aperture`) and forms the image with
-:class:`~auvlink.sim.acoustic_image.AcousticImager` (:meth:`SonarRenderer.realistic`).
+Acoustic profile: the scene's ``[acoustics]`` table (:mod:`auvlink.sim.acoustics`); without one, or with one
+that names no profile, the realistic profile of the scene's sonar model
+(:func:`~auvlink.sim.acoustics.rendered_table`). A realistic profile samples ``elevation_samples`` rays per
+beam over its vertical extent (:func:`sampled_aperture`) and forms the image with
+:class:`~auvlink.sim.acoustic_image.AcousticImager` (:meth:`SonarRenderer.realistic`); ``profile = "ideal"``
+renders the idealized model above.
 
 Randomness: all draws go through the ``numpy.random.Generator`` passed in; :func:`frame_rng`
 derives one per frame from the run's seed, so a frame renders the same bytes in any order.
@@ -37,7 +39,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from auvlink.sim.acoustic_image import AcousticImager
-from auvlink.sim.acoustics import Acoustics, resolve
+from auvlink.sim.acoustics import Acoustics, rendered_table, resolve
 from auvlink.sim.object_meshes import bounding_sphere, class_material, object_pose, placed_mesh
 from auvlink.sim.scene import Scene, SonarConfig
 from auvlink.sim.seabed import SeabedSurface
@@ -92,7 +94,7 @@ class SonarRenderer:
         self.scene, self.cull, self.speckle = scene, cull, speckle
         self.model = model if model is not None else AcousticModel()
         self.seabed = seabed if seabed is not None else SeabedSurface(scene.seabed, scene.seed)
-        self.acoustics = resolve(scene.acoustics, scene.sonar.frequency_mode or "high")
+        self.acoustics = resolve(rendered_table(scene.acoustics, scene.sonar), scene.sonar.frequency_mode or "high")
         self.imager: AcousticImager | None = None
         if self.acoustics is None:
             self.geometry = RayFan(scene.sonar, rays_per_beam)

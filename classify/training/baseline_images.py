@@ -2,9 +2,10 @@
 
 One object of a class sits at the origin of a flat, slightly rough seabed, turned by a viewing
 heading; the vehicle flies level towards it (yaw 0) at ``altitude`` with the sonar tilted by
-``tilt``, and the frame is rendered (speckle on) with the object at a horizontal distance drawn
-between where the steepest ray and the boresight meet the seabed. Images are 512 x 96, reduced
-to ``(512 / pool) x 96`` by mean pooling along range. Same settings, same images.
+``tilt``, and the frame is rendered (the idealized acoustic model, ``profile = "ideal"``; speckle on)
+with the object at a horizontal distance drawn between where the steepest ray and the boresight
+meet the seabed. Images are 512 x 96, reduced to ``(512 / pool) x 96`` by mean pooling along range.
+Same settings, same images.
 """
 
 from __future__ import annotations
@@ -22,9 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from auvlink.progress import progress_bar
+from auvlink.sim.acoustics import AcousticsTable
 from auvlink.sim.scene import Scene, SceneObject, Seabed, SonarConfig, Survey
 from auvlink.sim.sonar_render import SonarRenderer
 from classify.training.baseline2d import ImageSet
+
+#: the acoustic model the baseline's images are rendered under: the idealized one (``profile = "ideal"``)
+IDEAL = AcousticsTable(profile="ideal")
 
 
 @dataclass(frozen=True)
@@ -80,7 +85,7 @@ def _render(class_names: Sequence[str], settings: ImageSettings, progress: bool)
         scene = Scene(seed=int(rng.integers(2**31)), seabed=seabed,
                       objects=(SceneObject(name, 0.0, 0.0, heading),),
                       survey=Survey(line_length=10.0, line_spacing=3.5, lines=1, altitude=altitude, speed=1.0),
-                      sonar=sonar)
+                      sonar=sonar, acoustics=IDEAL)
         renderer = SonarRenderer(scene)
         t = math.radians(tilt)
         near = altitude / math.tan(t + math.radians(settings.spread_deg) / 2)
