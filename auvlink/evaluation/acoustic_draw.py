@@ -11,7 +11,8 @@ written over it (:data:`ACOUSTIC_SPACE`):
   integrated in multiples of the -3 dB width: the energy beyond the nominal edge);
 - ``sidelobe_db`` -35 to -15 dB; a pulse of 1-4 range bins (``pulse_m`` = bins x window / 512);
 - ``gain_db`` +-10 dB (the profile's jitter set to 0, so the drawn offset is the survey's);
-- ``tvg_error_db_per_m``, ``noise_floor_db`` and ``interference_fraction``.
+- ``tvg_error_db_per_m``, ``noise_floor_db`` and ``interference_fraction``;
+- ``multipath_db`` -40 to -20 dB (surface ghosts; drawn last, so the factors before it keep their values).
 
 The draw of survey ``i`` comes from its own generator, seeded ``(seed, i, ACOUSTIC_STREAM)``: the survey
 draw (its generator seeded ``(seed, i, 0x5A17E7)``) is the same under every ``SPACE``, and the same seed gives
@@ -53,6 +54,9 @@ ACOUSTIC_SPACE: dict[str, tuple[float, float]] = {
     "tvg_error_db_per_m": (-2.0, 2.0),  # the ARIS sample's fall along range needs -2 dB/m (docs/ACOUSTICS.md)
     "noise_floor_db": (-60.0, -45.0),  # display floor (invisible) to ~13 dB under a level -32 dB sand seabed
     "interference_fraction": (0.0, 0.05),  # issue 36's harsh case has stripes in 2 % of frames
+    # surface ghosts: a lens's far vertical sidelobe (-30 dB one way) to an array element's (-20 dB) plus 0-10 dB of
+    # surface loss (calm to choppy at 1-3 MHz; assumption); drawn last, so the factors above keep their values
+    "multipath_db": (-40.0, -20.0),
 }
 
 #: factor -> bin edges (numeric) or categories; the rows of the per-factor table
@@ -66,6 +70,7 @@ ACOUSTIC_BINS: dict[str, tuple[float, ...] | tuple[str, ...]] = {
     "tvg_error_db_per_m": (-2.0, -0.7, 0.7, 2.0),
     "noise_floor_db": (-60.0, -55.0, -50.0, -45.0),
     "interference_fraction": (0.0, 0.01, 0.03, 0.05),
+    "multipath_db": (-40.0, -33.0, -27.0, -20.0),
 }
 
 
@@ -84,6 +89,7 @@ class AcousticDraw:
     tvg_error_db_per_m: float | None = None
     noise_floor_db: float | None = None
     interference_fraction: float | None = None
+    multipath_db: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         return asdict(self)
@@ -156,7 +162,8 @@ def draw_acoustics(space: str, seed: int, index: int, window_length: float, mode
                         pulse_m=round(v["pulse_bins"] * bin_m, 5), gain_db=round(v["gain_db"], 2), gain_jitter_db=0.0,
                         tvg_error_db_per_m=round(v["tvg_error_db_per_m"], 3),
                         noise_floor_db=round(v["noise_floor_db"], 2),
-                        interference_fraction=round(v["interference_fraction"], 4))
+                        interference_fraction=round(v["interference_fraction"], 4),
+                        multipath_db=round(v["multipath_db"], 2))
 
 
 def acoustic_bin(factor: str, value: str | float) -> str:

@@ -18,6 +18,12 @@ Output: the uint8 image ``[range bin, beam]``. Steps, all vectorized over the fr
    uniformly over the ranges between them (the integral of the vertical aperture, piecewise linear
    in range), so a level seabed is one continuous band at any ``K``; a sample without such a
    neighbour keeps its share in its own bin (an edge).
+   Surface multipath (shallow water): every sample's echo also returns over the sea surface (``z = 0``, world
+   NED): out direct and back over the surface, or the reverse, both ``r + r_s`` long (``r_s`` the path from the
+   sonar's image above the surface), so its ghost shows at ``(r + r_s) / 2`` in the same beam, at
+   ``multipath_db`` under the echo, times the extra spreading ``(r / r_s)^2`` and the gain the TVG gives the
+   longer range ``((r + r_s) / 2r)^3`` (the extra absorption and the TVG's compensation of it cancel). The
+   ghosts integrate in elevation as the echoes do; a frame whose ghosts all fall past the window skips them.
 3. Pulse: each bin's energy spreads over ``[r, r + pulse_m]`` (a rectangular pulse; the echo's
    leading edge stays at the true range). Azimuth pattern: each beam receives the others through
    its two-way response, a gaussian main lobe and sidelobes from ``sidelobe_db`` two beams off,
@@ -65,6 +71,8 @@ MIN_SPAN_BINS = 1e-3
 MIN_COS = 0.05
 #: widest interference band, bins (a DVL ping of ~1 ms blanks a few centimetres of range)
 MAX_BAND_BINS = 7
+#: dB: a multipath level at or under this is no multipath (the schema's floor is -100 dB)
+MULTIPATH_OFF_DB = -80.0
 SINC2_HALF_POWER = 0.442946470689452  # x where (sin(pi x) / (pi x))^2 = 1/2
 
 
@@ -150,6 +158,7 @@ class AcousticImager:
         self.gain_db = params.gain_db + params.gain_jitter_db * (2.0 * draw.random() - 1.0)
         self.table = speckle_table(params.speckle_looks, params.texture_shape)
         self.mixer = AzimuthMixer(g.n_beams, params.azimuth_width_beams, params.sidelobe_db)
+        self.multipath = 0.0 if params.multipath_db <= MULTIPATH_OFF_DB else 10.0 ** (params.multipath_db / 10.0)
 
     def sample_energy(self, rng_: F64, cos2: F64, diffuse: F64, is_object: NDArray[np.bool_]) -> F64:
         """Energy of every sample (step 1): ranges (m), cos^2 of incidence, diffuse strength (linear)."""
@@ -217,18 +226,43 @@ class AcousticImager:
         v = v[: min(hi, n) - lo]
         return lo, np.maximum(v, 0.0, out=v)
 
-    def expected(self, rng_: F64, cos2: F64, diffuse: F64, surface: NDArray[np.int32]) -> F32:
+    def ghosts(self, rng_: F64, energy: F64, surface_range: F64) -> tuple[F64, F64] | None:
+        """The samples' surface ghosts (step 2): their ranges (inf past the window) and energies, from the
+        samples' ranges and energies and their paths ``surface_range`` (m) from the sonar's image above the
+        surface; None without multipath or when no ghost falls inside the window."""
+        if self.multipath == 0.0:
+            return None
+        window_end = self.g.window_start + self.g.n_bins * self.g.bin_width
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r_g = 0.5 * (rng_ + surface_range)
+            inside = np.isfinite(r_g) & (r_g < window_end) & (energy > 0.0)
+            if not inside.any():
+                return None
+            gain = self.multipath * (rng_ / surface_range) ** 2 * (r_g / rng_) ** 3
+            e_g = np.where(inside, energy * gain, 0.0)
+        return np.where(inside, r_g, np.inf), e_g
+
+    def expected(self, rng_: F64, cos2: F64, diffuse: F64, surface: NDArray[np.int32],
+                 surface_range: F64 | None = None) -> F32:
         """Expected bin energy (steps 1-3) before speckle, noise and gain; range-major (n_bins, n_beams),
-        float32 after the integral (ample for an 8-bit log image). The pulse and the beam mixing run on the
-        lit band of range lines alone (:meth:`lit_band`; the others stay 0)."""
+        float32 after the integral (ample for an 8-bit log image). ``surface_range``: each sample's path (m) from
+        the sonar's image above the sea surface (its multipath ghosts; None: none). The pulse and the beam
+        mixing run on the lit band of range lines alone (:meth:`lit_band`; the others stay 0)."""
         e = self.sample_energy(rng_, cos2, diffuse, surface >= 0)
-        lo, band = self.lit_band(rng_, e, surface)
+        bands = [self.lit_band(rng_, e, surface)]
+        ghost = None if surface_range is None else self.ghosts(rng_, e, surface_range)
+        if ghost is not None:
+            bands.append(self.lit_band(ghost[0], ghost[1], surface))
+        bands = [(lo, band) for lo, band in bands if band.shape[0]]
         img = np.zeros((self.g.n_bins, self.g.n_beams), np.float32)
-        if band.shape[0] == 0:
+        if not bands:
             return img
+        for lo, band in bands:
+            img[lo:lo + band.shape[0]] += band
+        lo = min(b[0] for b in bands)
+        end = max(b[0] + b[1].shape[0] for b in bands)
         pulse_bins = self.p.pulse_m / self.g.bin_width
-        hi = min(self.g.n_bins, lo + band.shape[0] + 1 + int(pulse_bins))
-        img[lo:lo + band.shape[0]] = band
+        hi = min(self.g.n_bins, end + 1 + int(pulse_bins))
         img[lo:hi] = self.mixer(spread_in_range(img[lo:hi], pulse_bins))
         return img
 

@@ -34,6 +34,11 @@ overrides. The physics of each key and its unit (docs/ACOUSTICS.md):
   additive noise, display dB), ``interference_fraction`` of frames with a bright band of
   ``interference_db`` (display dB) across the fan, ``display_floor_db`` / ``display_range_db`` (the
   8-bit log display: 0 at the floor, 255 at floor + range).
+- surface multipath: ``multipath_db`` (the level of an echo's ghost over the sea surface against the
+  echo itself: the surface's reflection loss plus the vertical pattern's far sidelobe towards the surface, both
+  mixed paths together; ``-inf``-like values under ``-80`` turn it off). A ghost shows at the mixed paths' range
+  ``(r + r_s) / 2`` (``r_s`` the path over the surface), so in shallow water only: at 10 m of depth and more
+  the ghost of a window of 15 m or less falls past its end.
 """
 
 from __future__ import annotations
@@ -80,6 +85,7 @@ class Acoustics:
     interference_db: float
     display_floor_db: float
     display_range_db: float
+    multipath_db: float
 
 
 #: values every realistic profile shares unless it says otherwise
@@ -98,6 +104,9 @@ _COMMON: dict[str, Any] = {
     "interference_db": -10.0,
     "display_floor_db": -60.0,  # 8-bit log display over 60 dB (DIDSON/ARIS viewers' default span)
     "display_range_db": 60.0,
+    # a lens's vertical pattern ~30 dB down one way far off its axis (towards the surface, 60-90 deg above a fan
+    # tilted down; assumption) plus ~3 dB of surface reflection loss, +3 dB for the two mixed paths
+    "multipath_db": -30.0,
 }
 
 #: what the Oculus data sheets leave out, shared by both models and modes (issue 36's documented ranges)
@@ -107,6 +116,7 @@ _OCULUS: dict[str, Any] = {
     # sidelobes, not a lens' two-way): the harsher half of issue 36's -15 to -35 dB, 5 dB above the DIDSON's
     "gain_jitter_db": 3.0,  # as DIDSON (the operator's gain setting, in % on the Oculus)
     "speckle_looks": 2.0,  # not on the data sheet: as the ARIS sample's grey-level spread (same log display)
+    "multipath_db": -25.0,  # a flat array's element pattern ~25 dB down one way towards the surface (assumption)
 }
 
 
@@ -220,6 +230,7 @@ class AcousticsTable:
     interference_db: Db | None = None
     display_floor_db: Db | None = None
     display_range_db: Annotated[Number | None, Field(ge=10.0, le=120.0, description="dB")] = None
+    multipath_db: Annotated[Number | None, Field(ge=-100.0, le=0.0, description="surface ghost, dB re echo")] = None
 
 
 def profile_named(name: str) -> ProfileName:

@@ -215,7 +215,8 @@ class SonarRenderer:
             cos2 = np.where(hits.kind == MISS, 0.0, hits.intensity * hits.range * hits.range / strength)
         # objects: the seabed's mu times the ideal model's contrast (material gain over the seabed's)
         diffuse = self.imager.mu * np.where(obj, strength / self.seabed_gain * self.imager.object_scale, 1.0)
-        energy = self.imager.expected(hits.range, cos2, diffuse, surface)
+        paths = surface_paths(hits) if self.imager.multipath else None  # multipath ghosts (shallow water)
+        energy = self.imager.expected(hits.range, cos2, diffuse, surface, paths)
         return self.imager.display(energy, rng if self.speckle else None)
 
     def image(self, hits: RayHits, rng: np.random.Generator | None = None) -> U8:
@@ -246,6 +247,14 @@ class SonarRenderer:
         for i, (p, m) in enumerate(zip(np.asarray(positions, float), mats, strict=True)):
             rng = frame_rng(seed, first_frame + i) if self.speckle else None
             yield self.image(self.trace_matrix(p, m), rng)
+
+
+def surface_paths(hits: RayHits) -> F64:
+    """Each sample's path (m) from the sonar's image above the sea surface (``z = 0``, world NED) to its hit:
+    the leg over the surface of its multipath echo (inf for a miss)."""
+    image = hits.origin * np.array([1.0, 1.0, -1.0])
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.linalg.norm(hits.points - image, axis=1), np.float64)
 
 
 def sampled_aperture(sonar: SonarConfig, acoustics: Acoustics) -> SonarConfig:
