@@ -37,8 +37,8 @@ overrides. The physics of each key and its unit (docs/ACOUSTICS.md):
 - surface multipath: ``multipath_db`` (the level of an echo's ghost over the sea surface against the
   echo itself: the surface's reflection loss plus the vertical pattern's far sidelobe towards the surface, both
   mixed paths together; ``-inf``-like values under ``-80`` turn it off). A ghost shows at the mixed paths' range
-  ``(r + r_s) / 2`` (``r_s`` the path over the surface), so in shallow water only: at 10 m of depth and more
-  the ghost of a window of 15 m or less falls past its end.
+  ``(r + r_s) / 2`` (``r_s`` the path over the surface), no nearer than the hit's depth: only water shallower
+  than the range window's far end shows ghosts.
 """
 
 from __future__ import annotations
