@@ -2,45 +2,55 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from auvlink.sim.acoustic_image import AcousticImager
 from auvlink.sim.acoustics import AcousticsTable, resolve
 from auvlink.sim.scene import Scene, load_default_scene
-from auvlink.sim.sonar_render import SonarRenderer, surface_paths
+from auvlink.sim.sonar_render import RayHits, SonarRenderer, surface_paths
 
 
-def _scene(depth: float, multipath_db: float, objects: bool = False) -> Scene:
-    """The default scene over a level smooth seabed ``depth`` m deep (the sonar 5 m above it, at the body
-    origin), under the didson profile with no pulse and the given multipath level."""
+def _scene(depth: float, multipath_db: float) -> Scene:
+    """The default scene without objects over a level smooth seabed ``depth`` m deep (the sonar 5 m above it, at the
+    body origin), under the didson profile with no pulse and the given multipath level."""
     s = load_default_scene()
     table = AcousticsTable(profile="didson", pulse_m=0.0, multipath_db=multipath_db)
-    return replace(s, objects=s.objects if objects else (), acoustics=table,
-                   seabed=replace(s.seabed, depth=depth, slope_deg=0.0, roughness=0.0),
+    return replace(s, objects=(), acoustics=table, seabed=replace(s.seabed, depth=depth, slope_deg=0.0, roughness=0.0),
                    sonar=replace(s.sonar, lever_arm=(0.0, 0.0, 0.0)))
 
 
-def _expected(scene: Scene, with_ghosts: bool = True) -> tuple[np.ndarray, SonarRenderer, np.ndarray]:
-    """Expected energy (no speckle) of the frame at the start of the first line, level."""
-    rd = SonarRenderer(scene, speckle=False)
-    pos = np.array([0.0, 0.0, scene.seabed.depth - scene.survey.altitude])
-    hits = rd.trace(pos, 0.0, 0.0, 0.0)
-    assert rd.imager is not None
-    diffuse = np.full(hits.range.size, rd.imager.mu)
-    cos2 = np.where(np.isfinite(hits.range), hits.intensity * hits.range**2 / rd.seabed_gain, 0.0)
-    surface = np.full(hits.range.size, -1, np.int32)
-    paths = surface_paths(hits) if with_ghosts else None
-    return rd.imager.expected(hits.range, cos2, diffuse, surface, paths), rd, hits.range
+@dataclass(frozen=True)
+class Frame:
+    """The level frame at the start of the first line: its renderer, hits and the samples' inputs (seabed only)."""
+
+    rd: SonarRenderer
+    imager: AcousticImager
+    hits: RayHits
+    cos2: np.ndarray
+    diffuse: np.ndarray
+
+    @classmethod
+    def of(cls, scene: Scene) -> Frame:
+        rd = SonarRenderer(scene, speckle=False)
+        hits = rd.trace(np.array([0.0, 0.0, scene.seabed.depth - scene.survey.altitude]), 0.0, 0.0, 0.0)
+        assert rd.imager is not None
+        cos2 = np.where(np.isfinite(hits.range), hits.intensity * hits.range**2 / rd.seabed_gain, 0.0)
+        return cls(rd, rd.imager, hits, cos2, np.full(hits.range.size, rd.imager.mu))
+
+    def expected(self, with_ghosts: bool = True) -> np.ndarray:
+        """Expected energy (no speckle), with or without the surface ghosts."""
+        paths = surface_paths(self.hits) if with_ghosts else None
+        surface = np.full(self.hits.range.size, -1, np.int32)
+        return self.imager.expected(self.hits.range, self.cos2, self.diffuse, surface, paths)
 
 
 def test_surface_path_is_the_distance_from_the_sonars_image_above_the_surface() -> None:
     """The sonar 4 m deep, a hit 9 m deep 6 m ahead: direct 7.81 m, over the surface 14.32 m (the geometry)."""
-    from auvlink.sim.sonar_render import RayHits
-
     d = np.array([[6.0, 0.0, 5.0]]) / np.hypot(6.0, 5.0)
     hits = RayHits(np.array([0.0, 0.0, 4.0]), d.T, np.array([np.hypot(6.0, 5.0)]), np.ones(1),
                    np.ones(1, np.int8), np.full(1, -1, np.int32))
@@ -49,32 +59,25 @@ def test_surface_path_is_the_distance_from_the_sonars_image_above_the_surface() 
 
 def test_off_and_deep_water_leave_the_image_as_it_was() -> None:
     """-100 dB, or a seabed so deep that every ghost falls past the window: byte-identical energy."""
-    shallow_off, _, _ = _expected(_scene(9.0, -100.0))
-    assert np.array_equal(shallow_off, _expected(_scene(9.0, -100.0), with_ghosts=False)[0])
-    deep, _, _ = _expected(_scene(40.0, -20.0))
-    assert np.array_equal(deep, _expected(_scene(40.0, -20.0), with_ghosts=False)[0])
+    for frame in (Frame.of(_scene(9.0, -100.0)), Frame.of(_scene(40.0, -20.0))):
+        assert np.array_equal(frame.expected(), frame.expected(with_ghosts=False))
 
 
 def test_shallow_water_ghost_lies_at_the_mixed_paths_range() -> None:
     """9 m of water, the sonar 4 m deep: the seabed band's ghost adds energy only, none nearer than the nearest
     sample's ``(r + r_s) / 2``, centred (energy-weighted) on the samples' ghost ranges within two bins."""
-    scene = _scene(9.0, -20.0)
-    on, rd, _ = _expected(scene)
-    off, _, _ = _expected(scene, with_ghosts=False)
-    ghost = on - off
+    frame = Frame.of(_scene(9.0, -20.0))
+    on = frame.expected()
+    ghost = on - frame.expected(with_ghosts=False)
     assert ghost.min() >= -1e-6 * on.max()
-    g = rd.geometry
+    g = frame.rd.geometry
     rows = g.range_of_bin
     w = ghost.sum(axis=1)
     assert w.sum() > 0.0
     # the prediction: each sample's ghost energy at its own ghost range
-    pos = np.array([0.0, 0.0, scene.seabed.depth - scene.survey.altitude])
-    hits = rd.trace(pos, 0.0, 0.0, 0.0)
-    assert rd.imager is not None
-    cos2 = np.where(np.isfinite(hits.range), hits.intensity * hits.range**2 / rd.seabed_gain, 0.0)
-    e = rd.imager.sample_energy(hits.range, cos2, np.full(hits.range.size, rd.imager.mu),
-                                np.zeros(hits.range.size, bool))
-    got = rd.imager.ghosts(hits.range, e, surface_paths(hits))
+    hits = frame.hits
+    e = frame.imager.sample_energy(hits.range, frame.cos2, frame.diffuse, np.zeros(hits.range.size, bool))
+    got = frame.imager.ghosts(hits.range, e, surface_paths(hits))
     assert got is not None
     r_g, e_g = got
     inside = np.isfinite(r_g)

@@ -232,10 +232,9 @@ class AcousticImager:
         surface; None without multipath or when no ghost falls inside the window."""
         if self.multipath == 0.0:
             return None
-        window_end = self.g.window_start + self.g.n_bins * self.g.bin_width
         with np.errstate(invalid="ignore", divide="ignore"):
             r_g = 0.5 * (rng_ + surface_range)
-            inside = np.isfinite(r_g) & (r_g < window_end) & (energy > 0.0)
+            inside = np.isfinite(r_g) & (r_g < self.g.window_end) & (energy > 0.0)
             if not inside.any():
                 return None
             gain = self.multipath * (rng_ / surface_range) ** 2 * (r_g / rng_) ** 3

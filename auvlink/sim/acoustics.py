@@ -36,7 +36,7 @@ overrides. The physics of each key and its unit (docs/ACOUSTICS.md):
   8-bit log display: 0 at the floor, 255 at floor + range).
 - surface multipath: ``multipath_db`` (the level of an echo's ghost over the sea surface against the
   echo itself: the surface's reflection loss plus the vertical pattern's far sidelobe towards the surface, both
-  mixed paths together; ``-inf``-like values under ``-80`` turn it off). A ghost shows at the mixed paths' range
+  mixed paths together; ``-80`` or less turns it off). A ghost shows at the mixed paths' range
   ``(r + r_s) / 2`` (``r_s`` the path over the surface), no nearer than the hit's depth: only water shallower
   than the range window's far end shows ghosts.
 """
